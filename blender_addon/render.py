@@ -1,0 +1,119 @@
+"""Render a scene with Cycles on the CPU and read the pixels back (headless-safe: via an EXR on tmpfs)."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+
+import bpy
+import numpy as np
+
+from vto_core.colour import linear_to_srgb
+from vto_core.errors import VtoError
+
+# tmpfs when there is one: the render round-trips through a file because headless
+# Render Results hold no pixels.
+_TMP_ROOT = "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else None
+
+
+def configure_cycles(scene: bpy.types.Scene, res: int, samples: int, seed: int = 0) -> None:
+    """Cycles CPU, fixed samples and seed, no denoiser, Standard view: deterministic small renders."""
+    if not 8 <= res <= 4096:
+        raise VtoError(f"resolution must be in [8, 4096], got {res}")
+    if not 1 <= samples <= 65536:
+        raise VtoError(f"samples must be in [1, 65536], got {samples}")
+    scene.render.engine = "CYCLES"
+    cycles = scene.cycles
+    cycles.device = "CPU"
+    cycles.samples = samples
+    cycles.use_adaptive_sampling = False
+    cycles.use_denoising = False
+    cycles.seed = seed
+    cycles.use_animated_seed = False
+    cycles.max_bounces = 4
+    cycles.diffuse_bounces = 2
+    cycles.glossy_bounces = 2
+    cycles.transmission_bounces = 2
+    cycles.transparent_max_bounces = 2
+    scene.render.resolution_x = scene.render.resolution_y = res
+    scene.render.resolution_percentage = 100
+    scene.render.use_compositing = False
+    scene.render.use_sequencer = False
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    scene.display_settings.display_device = "sRGB"
+    settings = scene.render.image_settings
+    settings.file_format = "OPEN_EXR_MULTILAYER"
+    settings.color_depth = "32"
+    settings.exr_codec = "NONE"
+
+
+class RenderFiles:
+    """A private temp folder for render round-trips, removed on close."""
+
+    def __init__(self):
+        self.folder = tempfile.mkdtemp(prefix="vto-render-", dir=_TMP_ROOT)
+        self.path = os.path.join(self.folder, "render.exr")
+
+    def close(self) -> None:
+        """Delete the folder and what is in it."""
+        for name in os.listdir(self.folder):
+            os.remove(os.path.join(self.folder, name))
+        os.rmdir(self.folder)
+
+
+_files: RenderFiles | None = None
+
+
+def _render_path() -> str:
+    global _files
+    if _files is None:
+        _files = RenderFiles()
+    return _files.path
+
+
+def read_exr_layers(path: str) -> dict[str, np.ndarray]:
+    """A multilayer EXR -> {pass name: (H, W, C) float32}, top row first."""
+    import OpenImageIO as oiio
+
+    image = oiio.ImageInput.open(path)
+    if image is None:
+        raise VtoError(f"cannot read render output {path}: {oiio.geterror()}")
+    try:
+        spec = image.spec()
+        pixels = image.read_image(0, 0, 0, spec.nchannels, "float")
+    finally:
+        image.close()
+    if pixels is None:
+        raise VtoError(f"cannot read render output {path}")
+    layers: dict[str, list[tuple[str, int]]] = {}
+    for index, name in enumerate(spec.channelnames):
+        parts = name.split(".")  # ViewLayer.Pass.Channel
+        layers.setdefault(parts[-2] if len(parts) >= 2 else "Combined", []).append((parts[-1], index))
+    order = {c: i for i, c in enumerate("RGBAXYZV")}
+    return {
+        pass_name: np.ascontiguousarray(pixels[..., [i for _, i in sorted(chans, key=lambda c: order.get(c[0], 99))]])
+        for pass_name, chans in layers.items()
+    }
+
+
+def render_passes(scene: bpy.types.Scene) -> dict[str, np.ndarray]:
+    """Render `scene` (already configured) and return its passes as linear float32 arrays."""
+    path = _render_path()
+    scene.render.filepath = path
+    scene.render.use_file_extension = False
+    window_scene = bpy.context.window.scene if bpy.context.window else None
+    with bpy.context.temp_override(scene=scene):
+        bpy.ops.render.render(write_still=True, scene=scene.name)
+    if window_scene is not None:
+        bpy.context.window.scene = window_scene
+    layers = read_exr_layers(path)
+    os.remove(path)
+    return layers
+
+
+def to_display(linear_rgb: np.ndarray) -> np.ndarray:
+    """Scene-linear RGB (H, W, 3) -> display sRGB in [0,1], exactly what the Standard view transform shows."""
+    return linear_to_srgb(np.clip(np.nan_to_num(linear_rgb, nan=0.0, posinf=1.0), 0.0, 1.0)).astype(np.float32)

@@ -1,0 +1,221 @@
+"""The default lips scene: procedural lips on skin, HDRI light and camera jitter, all set by a source seed.
+
+The scene is built once; `apply_source` then changes vertex positions, colours and the world in place,
+so that a long dataset run creates no data blocks per sample.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import bpy
+import numpy as np
+
+from vto_core.colour import srgb_to_linear
+
+from .nodes_lipstick import lipstick_group
+
+SCENE_NAME = "VTO Lips"
+LIPS_OBJECT = "VTO Lips"
+SKIN_OBJECT = "VTO Skin"
+LIPS_MATERIAL = "VTO Lips Material"
+SKIN_MATERIAL = "VTO Skin Material"
+MAKEUP_NODE = "VTO Lipstick"
+
+LIP_COLUMNS, LIP_ROWS = 48, 12  # per lip: across the mouth, outer contour -> mouth line
+SKIN_COLUMNS, SKIN_ROWS = 80, 60
+SKIN_HALF_WIDTH, SKIN_HALF_HEIGHT = 2.2, 1.6
+MOUTH_DEPTH = 0.35
+
+# sRGB 8-bit tones, light to dark.
+SKIN_TONES = [(241, 194, 167), (224, 172, 138), (198, 146, 110), (161, 110, 75), (118, 78, 52), (80, 52, 36)]
+LIP_TONE_SHIFT = (-0.06, -0.22, -0.18)  # lips: a redder, darker version of the skin tone
+
+
+def hdri_paths() -> list[str]:
+    """Blender's bundled studio-light HDRIs (CC0), sorted so a seed picks the same file everywhere."""
+    folder = os.path.join(bpy.utils.system_resource("DATAFILES"), "studiolights", "world")
+    return sorted(os.path.join(folder, f) for f in os.listdir(folder) if f.endswith(".exr"))
+
+
+def lip_shape(rng: np.random.Generator) -> dict[str, float]:
+    """Random shape parameters of one mouth."""
+    return {
+        "upper": rng.uniform(0.22, 0.42),
+        "lower": rng.uniform(0.28, 0.52),
+        "bow": rng.uniform(0.0, 0.1),
+        "gap": rng.uniform(0.0, 0.1),
+        "smile": rng.uniform(-0.08, 0.12),
+        "fullness": rng.uniform(0.08, 0.2),
+        "wrap": rng.uniform(0.15, 0.4),
+    }
+
+
+def _contours(u: np.ndarray, shape: dict[str, float]) -> tuple[np.ndarray, ...]:
+    """Outer and inner contours of both lips at u in [-1, 1]: (upper_out, upper_in, lower_in, lower_out)."""
+    taper = np.clip(1.0 - u**2, 0.0, 1.0)
+    curve = shape["smile"] * u**2
+    bow = shape["bow"] * np.exp(-((u / 0.14) ** 2)) * taper
+    upper_in = 0.5 * shape["gap"] * taper + curve
+    lower_in = -0.5 * shape["gap"] * taper + curve
+    upper_out = upper_in + shape["upper"] * taper**0.6 - bow
+    lower_out = lower_in - shape["lower"] * taper**0.55
+    return upper_out, upper_in, lower_in, lower_out
+
+
+def lip_vertices(shape: dict[str, float]) -> np.ndarray:
+    """Vertex positions of both lips: (2 * (LIP_COLUMNS+1) * (LIP_ROWS+1), 3)."""
+    u = np.linspace(-1.0, 1.0, LIP_COLUMNS + 1)
+    v = np.linspace(0.0, 1.0, LIP_ROWS + 1)
+    uu, vv = np.meshgrid(u, v)
+    upper_out, upper_in, lower_in, lower_out = (np.broadcast_to(c, uu.shape) for c in _contours(u, shape))
+    depth = -shape["wrap"] * uu**2 + shape["fullness"] * np.sqrt(np.clip(1 - uu**2, 0, 1)) * np.sin(np.pi * (0.1 + 0.8 * vv))
+    parts = []
+    for outer, inner in ((upper_out, upper_in), (lower_out, lower_in)):
+        y = outer * (1 - vv) + inner * vv
+        parts.append(np.stack([uu, y, depth], axis=-1).reshape(-1, 3))
+    return np.concatenate(parts).astype(np.float32)
+
+
+def skin_vertices(shape: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Skin grid positions (N, 3) and a per-vertex mouth weight (N,) (1 inside the mouth opening)."""
+    x = np.linspace(-SKIN_HALF_WIDTH, SKIN_HALF_WIDTH, SKIN_COLUMNS + 1)
+    y = np.linspace(-SKIN_HALF_HEIGHT, SKIN_HALF_HEIGHT, SKIN_ROWS + 1)
+    xx, yy = np.meshgrid(x, y)
+    _, upper_in, lower_in, _ = _contours(np.clip(xx, -1, 1), shape)
+    inside = (np.abs(xx) < 0.97) & (yy < upper_in + 0.02) & (yy > lower_in - 0.02)
+    z = -shape["wrap"] * np.minimum(xx**2, 1.6) - 0.04 - MOUTH_DEPTH * inside
+    return np.stack([xx, yy, z], -1).reshape(-1, 3).astype(np.float32), inside.reshape(-1).astype(np.float32)
+
+
+def _grid_faces(columns: int, rows: int, offset: int = 0) -> list[tuple[int, int, int, int]]:
+    width = columns + 1
+    return [
+        (offset + r * width + c, offset + r * width + c + 1, offset + (r + 1) * width + c + 1, offset + (r + 1) * width + c)
+        for r in range(rows)
+        for c in range(columns)
+    ]
+
+
+def _mesh_object(scene, name: str, vertices: np.ndarray, faces, material) -> bpy.types.Object:
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(vertices.tolist(), [], faces)
+    mesh.materials.append(material)
+    mesh.shade_smooth()
+    obj = bpy.data.objects.new(name, mesh)
+    scene.collection.objects.link(obj)
+    return obj
+
+
+def _lips_material() -> bpy.types.Material:
+    material = bpy.data.materials.new(LIPS_MATERIAL)
+    material.use_nodes = True
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    nodes.clear()
+    bare = nodes.new("ShaderNodeBsdfPrincipled")
+    bare.name = "Bare Lips"
+    bare.inputs["Roughness"].default_value = 0.45
+    makeup = nodes.new("ShaderNodeGroup")
+    makeup.name = makeup.label = MAKEUP_NODE
+    makeup.node_tree = lipstick_group()
+    output = nodes.new("ShaderNodeOutputMaterial")
+    links.new(bare.outputs[0], makeup.inputs["Lips"])
+    links.new(makeup.outputs[0], output.inputs["Surface"])
+    bare.location, makeup.location, output.location = (-300, 0), (0, 0), (250, 0)
+    return material
+
+
+def _skin_material() -> bpy.types.Material:
+    material = bpy.data.materials.new(SKIN_MATERIAL)
+    material.use_nodes = True
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    skin = nodes["Principled BSDF"]
+    skin.inputs["Roughness"].default_value = 0.5
+    mouth = nodes.new("ShaderNodeAttribute")
+    mouth.attribute_name = "mouth"
+    mix = nodes.new("ShaderNodeMix")
+    mix.name = "Skin Or Mouth"
+    mix.data_type = "RGBA"
+    mix.inputs[7].default_value = (0.02, 0.004, 0.004, 1.0)
+    links.new(mouth.outputs["Fac"], mix.inputs["Factor"])
+    links.new(mix.outputs[2], skin.inputs["Base Color"])
+    return material
+
+
+def _world(scene) -> None:
+    world = bpy.data.worlds.new(SCENE_NAME)
+    world.use_nodes = True
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    coords = nodes.new("ShaderNodeTexCoord")
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.name = "HDRI Rotation"
+    environment = nodes.new("ShaderNodeTexEnvironment")
+    environment.name = "HDRI"
+    environment.image = bpy.data.images.load(hdri_paths()[0], check_existing=True)
+    links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    links.new(mapping.outputs[0], environment.inputs["Vector"])
+    links.new(environment.outputs[0], nodes["Background"].inputs["Color"])
+    scene.world = world
+
+
+def build_lips_scene() -> bpy.types.Scene:
+    """Get or create the lips scene (geometry at source 0)."""
+    scene = bpy.data.scenes.get(SCENE_NAME)
+    if scene is not None:
+        return scene
+    scene = bpy.data.scenes.new(SCENE_NAME)
+    shape = lip_shape(np.random.default_rng(0))
+    lips = _mesh_object(scene, LIPS_OBJECT, lip_vertices(shape),
+                        _grid_faces(LIP_COLUMNS, LIP_ROWS) + _grid_faces(LIP_COLUMNS, LIP_ROWS, (LIP_COLUMNS + 1) * (LIP_ROWS + 1)),
+                        _lips_material())
+    u = np.linspace(0, 1, LIP_COLUMNS + 1)
+    v = np.linspace(0, 1, LIP_ROWS + 1)
+    uv_per_vertex = np.tile(np.stack(np.meshgrid(u, v), -1).reshape(-1, 2), (2, 1))
+    uv_layer = lips.data.uv_layers.new(name="UVMap")
+    loop_vertices = np.zeros(len(lips.data.loops), dtype=np.int32)
+    lips.data.loops.foreach_get("vertex_index", loop_vertices)
+    uv_layer.data.foreach_set("uv", uv_per_vertex[loop_vertices].reshape(-1))
+    skin_positions, _ = skin_vertices(shape)
+    skin = _mesh_object(scene, SKIN_OBJECT, skin_positions, _grid_faces(SKIN_COLUMNS, SKIN_ROWS), _skin_material())
+    skin.data.attributes.new("mouth", "FLOAT", "POINT")
+    camera = bpy.data.objects.new("VTO Camera", bpy.data.cameras.new("VTO Camera"))
+    camera.data.lens = 50.0
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    _world(scene)
+    apply_source(scene, 0)
+    return scene
+
+
+def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
+    """Set shape, tones, lighting and camera of the lips scene from `source_seed`, in place."""
+    rng = np.random.default_rng([int(source_seed), 0x11B5])
+    shape = lip_shape(rng)
+    lips = scene.objects[LIPS_OBJECT]
+    lips.data.vertices.foreach_set("co", lip_vertices(shape).reshape(-1))
+    skin = scene.objects[SKIN_OBJECT]
+    skin_positions, mouth = skin_vertices(shape)
+    skin.data.vertices.foreach_set("co", skin_positions.reshape(-1))
+    skin.data.attributes["mouth"].data.foreach_set("value", mouth)
+    lips.data.update()
+    skin.data.update()
+
+    tone = np.array(SKIN_TONES[rng.integers(len(SKIN_TONES))], dtype=np.float64) / 255.0
+    tone = np.clip(tone * rng.uniform(0.92, 1.08, 3), 0, 1)
+    lip_tone = np.clip(tone + np.array(LIP_TONE_SHIFT) * rng.uniform(0.6, 1.3), 0.02, 1)
+    skin_material = bpy.data.materials[SKIN_MATERIAL].node_tree.nodes
+    skin_material["Skin Or Mouth"].inputs[6].default_value = (*srgb_to_linear(tone), 1.0)
+    lips_material = bpy.data.materials[LIPS_MATERIAL].node_tree.nodes
+    lips_material["Bare Lips"].inputs["Base Color"].default_value = (*srgb_to_linear(lip_tone), 1.0)
+
+    world_nodes = scene.world.node_tree.nodes
+    paths = hdri_paths()
+    world_nodes["HDRI"].image = bpy.data.images.load(paths[rng.integers(len(paths))], check_existing=True)
+    world_nodes["HDRI Rotation"].inputs["Rotation"].default_value = (0.0, 0.0, rng.uniform(0, 2 * math.pi))
+    world_nodes["Background"].inputs["Strength"].default_value = rng.uniform(0.6, 1.6)
+
+    camera = scene.camera
+    camera.location = (rng.normal(0, 0.08), rng.normal(-0.05, 0.08), rng.uniform(3.6, 4.4))
+    camera.rotation_euler = (rng.normal(0, 0.02), rng.normal(0, 0.02), rng.normal(0, 0.04))
+    scene["vto_source_seed"] = int(source_seed)

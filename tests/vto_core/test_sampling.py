@@ -1,0 +1,101 @@
+"""Sampler: determinism per (seed, index), range coverage, the fit on presets."""
+
+import numpy as np
+import pytest
+
+from vto_core.errors import VtoError
+from vto_core.presets import load_presets, preset_matrix
+from vto_core.sampling import ParamSampler, PresetNormal
+from vto_core.specs import get_spec
+
+
+def make(renderer, ratio=0.5, seed=0, params=None):
+    spec = get_spec(renderer, params)
+    return ParamSampler(spec, preset_matrix(spec, load_presets(renderer)), ratio, seed)
+
+
+def test_presets_meet_the_minimum_counts_and_ranges():
+    lip, hair = load_presets("lipstick"), load_presets("hair")
+    assert len(lip) >= 30 and len(hair) >= 20
+    for renderer, presets in (("lipstick", lip), ("hair", hair)):
+        spec = get_spec(renderer)
+        for values in presets.values():
+            for name, value in values.items():
+                p = spec.by_name[name]
+                assert p.low <= value <= p.high, (renderer, name, value)
+    dark = [v for v in lip.values() if max(v["red"], v["green"], v["blue"]) < 60]
+    assert len(dark) >= 3, "the paper's user study failed on very dark shades: keep several"
+
+
+def test_sample_i_does_not_depend_on_what_was_drawn_before():
+    a, b = make("lipstick", seed=7), make("lipstick", seed=7)
+    forward = [a.sample(i) for i in range(20)]
+    backward = [b.sample(i) for i in reversed(range(20))][::-1]
+    assert np.array_equal(np.stack(forward), np.stack(backward))
+    assert not np.array_equal(make("lipstick", seed=8).sample(3), forward[3])
+
+
+def test_samples_stay_in_range_and_cover_it():
+    for renderer in ("lipstick", "hair"):
+        sampler = make(renderer, ratio=0.5)
+        unit = np.stack([sampler.sample_unit(i) for i in range(600)])
+        assert unit.min() >= 0.0 and unit.max() <= 1.0
+        raw = np.stack([sampler.sample(i) for i in range(600)])
+        assert np.isfinite(raw).all()
+        # uniform half reaches both ends of every dimension
+        assert (unit.min(0) < 0.05).all() and (unit.max(0) > 0.95).all()
+
+
+def test_uniform_ratio_one_is_uniform():
+    unit = np.stack([make("hair", ratio=1.0).sample_unit(i) for i in range(2000)])
+    assert np.allclose(unit.mean(0), 0.5, atol=0.03)
+    assert np.allclose(unit.std(0), np.sqrt(1 / 12), atol=0.02)
+
+
+def test_preset_only_sampling_follows_the_fit():
+    spec = get_spec("lipstick", "opacity,red,green,blue,gloss_roughness")
+    presets = preset_matrix(spec, load_presets("lipstick"))
+    sampler = ParamSampler(spec, presets, uniform_ratio=0.0, seed=1)
+    assert np.allclose(sampler.normal.mean, presets.mean(0), atol=1e-6)
+    chol = sampler.normal.cholesky
+    assert np.allclose(chol @ chol.T, np.cov(presets, rowvar=False) + 1e-4 * np.eye(5), atol=1e-6)
+    unit = np.stack([sampler.sample_unit(i) for i in range(3000)])
+    # truncation at 1 pulls opacity (mean 0.84) down; the colour and roughness means stay put
+    assert np.allclose(unit.mean(0)[1:], presets.mean(0)[1:], atol=0.05)
+    corr_fit = np.corrcoef(unit[:, 1], unit[:, 2])[0, 1]
+    corr_presets = np.corrcoef(presets[:, 1], presets[:, 2])[0, 1]
+    # truncation to the box weakens a correlation but must not erase it (per-dimension redraws did)
+    assert corr_presets > 0.5 and corr_fit > 0.7 * corr_presets
+
+
+def test_wrapping_hue_is_fitted_on_the_circle():
+    spec = get_spec("hair", "hue")
+    presets = np.array([[0.97], [0.99], [0.01], [0.03]])
+    normal = PresetNormal.fit(spec, presets)
+    draws = np.stack([normal.draw(np.random.default_rng(i)) for i in range(500)])
+    near_zero = np.minimum(draws, 1 - draws)
+    assert np.median(near_zero) < 0.05, "a naive mean would put the hue near 0.5"
+
+
+def test_resample_one_changes_only_element_j():
+    sampler = make("lipstick", seed=3, params="red,green,gloss")
+    base = sampler.sample_unit(5)
+    for j in range(3):
+        moved = sampler.resample_one_unit(5, j)
+        changed = np.nonzero(moved != base)[0].tolist()
+        assert changed == [j]
+        assert np.array_equal(moved, sampler.resample_one_unit(5, j))
+    with pytest.raises(VtoError):
+        sampler.resample_one_unit(5, 3)
+
+
+def test_bad_arguments():
+    spec = get_spec("hair")
+    with pytest.raises(VtoError, match="uniform_ratio"):
+        ParamSampler(spec, None, 1.5)
+    with pytest.raises(VtoError, match="needs presets"):
+        ParamSampler(spec, None, 0.5)
+    with pytest.raises(VtoError, match="index"):
+        make("hair").sample(-1)
+    with pytest.raises(VtoError, match="at least 2 presets"):
+        PresetNormal.fit(spec, np.zeros((1, 9)))

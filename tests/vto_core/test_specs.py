@@ -1,0 +1,148 @@
+"""Parameter specs: selection order, normalisation at the range ends, clamping and wrapping."""
+
+import json
+import math
+import sys
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, strategies as st
+
+from vto_core.errors import VtoError
+from vto_core.specs import RENDERERS, UNIT_CAP, RendererSpec, get_spec
+
+ALL_PARAMS = [(r, p) for r, spec in RENDERERS.items() for p in spec.params]
+IDS = [f"{r}.{p.name}" for r, p in ALL_PARAMS]
+
+
+def test_builtin_sizes_match_the_paper():
+    lipstick, hair = get_spec("lipstick"), get_spec("hair")
+    assert lipstick.size == 17
+    assert lipstick.modelled[:7] == ("opacity", "red", "green", "blue", "gloss", "gloss_roughness", "reflection")
+    assert hair.size == 9
+    assert {p.group for p in hair.params} == {"swatch", "non-swatch"}
+    assert [p.name for p in hair.params if p.group == "swatch"] == [
+        "brightness", "contrast", "exposure", "gamma", "hue", "saturation"]
+
+
+def test_select_keeps_spec_order_whatever_the_request_order():
+    spec = get_spec("lipstick", "gloss,red,opacity")
+    assert spec.modelled == ("opacity", "red", "gloss")
+    assert get_spec("lipstick", ["red", "gloss", "opacity"]).modelled == spec.modelled
+
+
+def test_select_unknown_or_empty_is_an_error():
+    with pytest.raises(VtoError, match="unknown lipstick parameter"):
+        get_spec("lipstick", "red,shimmer")
+    with pytest.raises(VtoError, match="at least one"):
+        get_spec("hair").select([])
+    with pytest.raises(VtoError, match="unknown renderer"):
+        get_spec("eyeliner")
+
+
+@pytest.mark.parametrize("renderer,param", ALL_PARAMS, ids=IDS)
+def test_both_range_ends_round_trip_finitely(renderer, param):
+    for raw in (param.low, param.sample_high):
+        unit = param.to_unit(raw)
+        back = param.from_unit(unit)
+        assert 0.0 <= unit <= 1.0 and math.isfinite(back)
+        if param.wraps:
+            assert back == pytest.approx(param.low)  # the top of a wrapping range is its bottom
+        else:
+            assert back == pytest.approx(raw, rel=1e-6)
+    assert math.isfinite(param.from_unit(0.0)) and math.isfinite(param.from_unit(1.0))
+
+
+@pytest.mark.parametrize("huge", [1e30, sys.float_info.max, math.inf])
+def test_unbounded_gloss_saturates_without_overflow(huge):
+    gloss = get_spec("lipstick").by_name["gloss"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        unit = gloss.to_unit(huge)
+    assert unit == pytest.approx(1.0) and math.isfinite(unit)
+    back = gloss.from_unit(unit)
+    assert math.isfinite(back) and back == pytest.approx(gloss.scale * UNIT_CAP / (1 - UNIT_CAP), rel=1e-6)
+    assert np.isfinite(np.float32(back))  # it must also fit a Blender float socket
+
+
+def test_saturating_map_values():
+    gloss = get_spec("lipstick").by_name["gloss"]
+    assert gloss.to_unit(0.0) == 0.0
+    assert gloss.to_unit(gloss.scale) == pytest.approx(0.5)
+    assert gloss.to_unit(3 * gloss.scale) == pytest.approx(0.75)
+    assert gloss.from_unit(0.75) == pytest.approx(3 * gloss.scale)
+
+
+def test_out_of_range_is_clamped_with_a_warning_not_wrapped():
+    opacity = get_spec("lipstick").by_name["opacity"]
+    with pytest.warns(UserWarning, match="outside"):
+        assert opacity.clamp(1.7) == 1.0
+    with pytest.warns(UserWarning, match="outside"):
+        assert opacity.to_unit(-0.5) == 0.0
+
+
+def test_hue_wraps_silently():
+    hue = get_spec("hair").by_name["hue"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert hue.clamp(1.25) == pytest.approx(0.25)
+        assert hue.clamp(-0.25) == pytest.approx(0.75)
+        assert hue.to_unit(1.0) == 0.0
+        assert hue.from_unit(1.3) == pytest.approx(0.3)
+
+
+def test_nan_is_rejected():
+    spec = get_spec("hair")
+    with pytest.raises(VtoError, match="NaN"):
+        spec.by_name["gamma"].clamp(float("nan"))
+    with pytest.raises(VtoError, match="NaN"):
+        spec.denormalise(np.full(spec.size, np.nan))
+
+
+@given(st.lists(st.floats(0, 1), min_size=9, max_size=9))
+def test_unit_round_trip_hair(unit):
+    spec = get_spec("hair")
+    back = spec.normalise(spec.denormalise(np.array(unit)))
+    expected = np.array(unit)
+    hue = spec.modelled.index("hue")
+    expected[hue] %= 1.0
+    assert np.allclose(back, expected, atol=1e-5) or abs(abs(back[hue] - expected[hue]) - 1) < 1e-5
+
+
+@given(st.lists(st.floats(0, 0.999), min_size=17, max_size=17))
+def test_unit_round_trip_lipstick(unit):
+    spec = get_spec("lipstick")
+    assert np.allclose(spec.normalise(spec.denormalise(np.array(unit))), unit, atol=1e-5)
+
+
+def test_vector_and_values_fill_defaults_for_unmodelled():
+    spec = get_spec("lipstick", "red,gloss")
+    vec = spec.vector({"red": 10.0})
+    assert vec.tolist() == [10.0, spec.by_name["gloss"].default]
+    full = spec.values([20.0, 2.0])
+    assert full["red"] == 20.0 and full["gloss"] == 2.0
+    assert full["sparkle_density"] == spec.by_name["sparkle_density"].default and len(full) == 17
+    with pytest.raises(VtoError, match="models 2"):
+        spec.values([1.0, 2.0, 3.0])
+    with pytest.raises(VtoError, match="unknown"):
+        spec.vector({"lip_gloss": 1.0})
+
+
+def test_batched_normalise_shapes():
+    spec = get_spec("hair", "hue,gamma,shine")
+    raw = np.array([[1.0, 0.5, 0.2], [3.0, 0.0, 1.0]])
+    unit = spec.normalise(raw)
+    assert unit.shape == (2, 3) and unit.dtype == np.float32
+    assert np.allclose(unit, [[0.2, 0.5, 0.2], [1.0, 0.0, 1.0]])
+    with pytest.raises(VtoError, match="last axis of 3"):
+        spec.normalise(np.zeros((2, 4)))
+
+
+def test_json_round_trip_and_same_as():
+    spec = get_spec("lipstick", "red,gloss")
+    back = RendererSpec.from_dict(json.loads(spec.to_json()))
+    assert back.same_as(spec) and back.by_name["gloss"].high == math.inf
+    assert not back.same_as(get_spec("lipstick", "red,green"))
+    with pytest.raises(VtoError, match="not a renderer spec"):
+        RendererSpec.from_dict({"renderer": "hair"})

@@ -1,0 +1,102 @@
+"""The `vto` command: one dispatcher for the console script and for `blender -c vto`."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+import warnings
+
+from .errors import VtoError
+
+# command -> (module, function, one-line help). Modules load lazily so `vto spec`
+# needs neither bpy nor torch.
+COMMANDS = {
+    "spec": ("vto_core.cli", "cmd_spec", "print a renderer's (selected) parameter spec as JSON"),
+    "sample": ("vto_core.cli", "cmd_sample", "print sampled parameter vectors as JSON lines"),
+    "presets": ("vto_core.cli", "cmd_presets", "list a renderer's expert presets"),
+}
+
+
+def add_spec_args(parser: argparse.ArgumentParser) -> None:
+    """The renderer and --params arguments every spec-using command shares."""
+    parser.add_argument("renderer", choices=["lipstick", "hair"])
+    parser.add_argument("--params", default=None, help="comma-separated subset of parameters to model")
+
+
+def cmd_spec(argv: list[str]) -> int:
+    """vto spec RENDERER [--params a,b]."""
+    from .specs import get_spec
+
+    parser = argparse.ArgumentParser(prog="vto spec", description=COMMANDS["spec"][2])
+    add_spec_args(parser)
+    args = parser.parse_args(argv)
+    spec = get_spec(args.renderer, args.params)
+    out = spec.to_dict()
+    out["vector_order"] = list(spec.modelled)
+    print(json.dumps(out, indent=1))
+    return 0
+
+
+def cmd_sample(argv: list[str]) -> int:
+    """vto sample RENDERER --n N --seed S [--params a,b] [--uniform-ratio R]."""
+    from .presets import load_presets, preset_matrix
+    from .sampling import ParamSampler
+    from .specs import get_spec
+
+    parser = argparse.ArgumentParser(prog="vto sample", description=COMMANDS["sample"][2])
+    add_spec_args(parser)
+    parser.add_argument("--n", type=int, default=5)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--start", type=int, default=0, help="first sample index")
+    parser.add_argument("--uniform-ratio", type=float, default=0.5)
+    args = parser.parse_args(argv)
+    if args.n < 1:
+        raise VtoError(f"--n must be at least 1, got {args.n}")
+    spec = get_spec(args.renderer, args.params)
+    sampler = ParamSampler(spec, preset_matrix(spec, load_presets(args.renderer)), args.uniform_ratio, args.seed)
+    for index in range(args.start, args.start + args.n):
+        raw = sampler.sample(index)
+        print(json.dumps({"index": index, "params": dict(zip(spec.modelled, raw.round(6).tolist()))}))
+    return 0
+
+
+def cmd_presets(argv: list[str]) -> int:
+    """vto presets RENDERER."""
+    from .presets import load_presets
+
+    parser = argparse.ArgumentParser(prog="vto presets", description=COMMANDS["presets"][2])
+    parser.add_argument("renderer", choices=["lipstick", "hair"])
+    args = parser.parse_args(argv)
+    for name, values in load_presets(args.renderer).items():
+        print(json.dumps({"name": name, "params": values}))
+    return 0
+
+
+def run(argv: list[str]) -> int:
+    """Dispatch argv (without the program name) to a command; VtoError -> one line, exit 2."""
+    if not argv or argv[0] in ("-h", "--help"):
+        print("usage: vto COMMAND [args]\n\ncommands:")
+        for name, (_, _, text) in COMMANDS.items():
+            print(f"  {name:<10} {text}")
+        return 0 if argv else 2
+    name, rest = argv[0], argv[1:]
+    if name not in COMMANDS:
+        print(f"vto: error: unknown command '{name}'; choose from {', '.join(COMMANDS)}", file=sys.stderr)
+        return 2
+    module, function, _ = COMMANDS[name]
+    warnings.simplefilter("default")
+    try:
+        return getattr(importlib.import_module(module), function)(rest) or 0
+    except VtoError as exc:
+        print(f"vto {name}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"vto {name}: interrupted", file=sys.stderr)
+        return 130
+
+
+def main() -> None:
+    """Console-script entry point."""
+    sys.exit(run(sys.argv[1:]))

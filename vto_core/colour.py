@@ -1,0 +1,149 @@
+"""Colour conversions and the hair swatch recolouring, as numpy references for Blender's nodes."""
+
+import numpy as np
+
+from vto_core.errors import VtoError
+
+LUMA_WEIGHTS = (0.2126, 0.7152, 0.0722)
+
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def _as_float64(values):
+    """Any float array-like -> float64 ndarray (internal maths run in float64)."""
+    return np.asarray(values, dtype=np.float64)
+
+
+def _to_float32(values):
+    """float64 ndarray -> float32, saturating at the float32 range so finite stays finite."""
+    return np.clip(values, -_FLOAT32_MAX, _FLOAT32_MAX).astype(np.float32)
+
+
+def _require_rgb_last_axis(values, name):
+    """Raise VtoError unless values has a last axis of length 3."""
+    if values.ndim == 0 or values.shape[-1] != 3:
+        raise VtoError(f"{name} must have shape (..., 3), got {values.shape}")
+
+
+def _srgb_to_linear64(srgb):
+    """(...) float64 -> (...) float64, IEC 61966-2-1 decoding with negatives sent to 0."""
+    # The power branch is evaluated everywhere by np.where, so keep its base non-negative.
+    power_base = np.maximum((srgb + 0.055) / 1.055, 0.0)
+    with np.errstate(over="ignore"):
+        power_branch = power_base**2.4
+    linear_branch = np.where(srgb < 0.0, 0.0, srgb / 12.92)
+    return np.where(srgb < 0.04045, linear_branch, power_branch)
+
+
+def _linear_to_srgb64(linear):
+    """(...) float64 -> (...) float64, IEC 61966-2-1 encoding with negatives sent to 0."""
+    power_branch = 1.055 * np.maximum(linear, 0.0) ** (1.0 / 2.4) - 0.055
+    linear_branch = np.where(linear < 0.0, 0.0, linear * 12.92)
+    return np.where(linear < 0.0031308, linear_branch, power_branch)
+
+
+def _rgb_to_hsv64(rgb):
+    """(..., 3) float64 -> (..., 3) float64 hexcone HSV with h in [0, 1)."""
+    red, green, blue = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    value = rgb.max(axis=-1)
+    chroma = value - rgb.min(axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        saturation = np.where(value == 0.0, 0.0, chroma / value)
+        safe_chroma = np.where(chroma == 0.0, 1.0, chroma)
+        hue_sextant = np.where(
+            value == red,
+            ((green - blue) / safe_chroma) % 6.0,
+            np.where(
+                value == green,
+                (blue - red) / safe_chroma + 2.0,
+                (red - green) / safe_chroma + 4.0,
+            ),
+        )
+    hue = np.where(chroma == 0.0, 0.0, hue_sextant / 6.0) % 1.0
+    return np.stack([hue, saturation, value], axis=-1)
+
+
+def _hsv_to_rgb64(hsv):
+    """(..., 3) float64 -> (..., 3) float64 with Blender's formula (linear in s, also for s > 1)."""
+    hue = hsv[..., 0] % 1.0
+    saturation = hsv[..., 1:2]
+    value = hsv[..., 2:3]
+    pure_hue_rgb = np.stack(
+        [
+            np.clip(np.abs(6.0 * hue - 3.0) - 1.0, 0.0, 1.0),
+            np.clip(2.0 - np.abs(6.0 * hue - 2.0), 0.0, 1.0),
+            np.clip(2.0 - np.abs(6.0 * hue - 4.0), 0.0, 1.0),
+        ],
+        axis=-1,
+    )
+    with np.errstate(over="ignore", invalid="ignore"):
+        return ((pure_hue_rgb - 1.0) * saturation + 1.0) * value
+
+
+def srgb_to_linear(srgb):
+    """srgb: (...) float -> (...) float32 linear; negatives -> 0, values > 1 follow the power law."""
+    return _to_float32(_srgb_to_linear64(_as_float64(srgb)))
+
+
+def linear_to_srgb(linear):
+    """linear: (...) float -> (...) float32 sRGB-encoded; negatives -> 0, values > 1 follow the power law."""
+    return _to_float32(_linear_to_srgb64(_as_float64(linear)))
+
+
+def luminance(rgb):
+    """rgb: (..., 3) float -> (...) float32, Rec. 709 weighted sum LUMA_WEIGHTS."""
+    rgb = _as_float64(rgb)
+    _require_rgb_last_axis(rgb, "rgb")
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _to_float32(rgb @ np.asarray(LUMA_WEIGHTS))
+
+
+def rgb_to_hsv(rgb):
+    """rgb: (..., 3) float -> (..., 3) float32 hsv; v = max, s = (max - min) / max, h in [0, 1)."""
+    rgb = _as_float64(rgb)
+    _require_rgb_last_axis(rgb, "rgb")
+    hsv = _to_float32(_rgb_to_hsv64(rgb))
+    # A hue just below 1 in float64 can round up to 1.0 in float32; keep h in [0, 1).
+    hsv[..., 0] = np.where(hsv[..., 0] >= 1.0, 0.0, hsv[..., 0])
+    return hsv
+
+
+def hsv_to_rgb(hsv):
+    """hsv: (..., 3) float -> (..., 3) float32 rgb; h is taken modulo 1, s is not clamped."""
+    hsv = _as_float64(hsv)
+    _require_rgb_last_axis(hsv, "hsv")
+    return _to_float32(_hsv_to_rgb64(hsv))
+
+
+def recolour_swatch(rgb, brightness, contrast, exposure, gamma, hue, saturation):
+    """rgb: (..., 3) float -> (..., 3) float32 in [0, 1]; the swatch recolouring of paper Table 3."""
+    rgb = _as_float64(rgb)
+    _require_rgb_last_axis(rgb, "rgb")
+    if not np.all(np.isfinite(rgb)):
+        raise VtoError("recolour_swatch: rgb contains NaN or inf")
+    params = dict(
+        brightness=brightness,
+        contrast=contrast,
+        exposure=exposure,
+        gamma=gamma,
+        hue=hue,
+        saturation=saturation,
+    )
+    for name, param in params.items():
+        if not np.isfinite(float(param)):
+            raise VtoError(f"recolour_swatch: {name} must be finite, got {param}")
+    if float(gamma) <= 0.0:
+        raise VtoError(f"recolour_swatch: gamma must be > 0, got {gamma}")
+
+    with np.errstate(over="ignore"):
+        adjusted = (rgb - 0.5) * float(contrast) + 0.5 + float(brightness)
+    # Saturate overflow so that inf * (exposure == 0) cannot turn into NaN.
+    adjusted = np.clip(adjusted, -np.finfo(np.float64).max, np.finfo(np.float64).max)
+    with np.errstate(over="ignore"):
+        adjusted = adjusted * float(exposure)
+    adjusted = np.clip(adjusted, 0.0, 1.0)
+    adjusted = adjusted ** (1.0 / float(gamma))
+    hsv = _rgb_to_hsv64(adjusted)
+    hsv[..., 0] = (hsv[..., 0] + float(hue)) % 1.0
+    hsv[..., 1] = hsv[..., 1] * float(saturation)
+    return np.clip(_hsv_to_rgb64(hsv), 0.0, 1.0).astype(np.float32)

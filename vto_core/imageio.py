@@ -1,0 +1,183 @@
+"""Read and write images through OpenImageIO as float32 numpy arrays.
+
+Arrays are (H, W, C) row-major with the top row first, OIIO's convention.
+Colour is RGB with alpha kept in a separate (H, W) array, and values are
+exactly as stored in the file: nothing is premultiplied or un-premultiplied.
+OpenImageIO is imported inside the functions so that importing this module
+never requires it.
+"""
+
+import contextlib
+import os
+import uuid
+
+import numpy as np
+
+from vto_core.errors import VtoError
+
+# Allowed `bits` per extension; the first entry is the default.
+_BITS_BY_EXTENSION = {
+    ".png": (8, 16),
+    ".jpg": (8,),
+    ".jpeg": (8,),
+    ".exr": ("half", "float"),
+    ".tif": (8, 16, "float"),
+    ".tiff": (8, 16, "float"),
+}
+_OIIO_TYPE_BY_BITS = {8: "uint8", 16: "uint16", "half": "half", "float": "float"}
+_NUMPY_INT_TYPE_BY_BITS = {8: np.uint8, 16: np.uint16}
+_CHANNEL_NAMES_BY_COUNT = {
+    1: ("Y",),
+    2: ("Y", "A"),
+    3: ("R", "G", "B"),
+    4: ("R", "G", "B", "A"),
+}
+
+
+def _one_line(message):
+    """Join the non-empty lines of an OIIO error message with '; '."""
+    lines = [line.strip() for line in str(message).splitlines()]
+    return "; ".join(line for line in lines if line) or "unknown error"
+
+
+def read_image(path):
+    """Read the first subimage of `path` as (rgb (H,W,3) float32, alpha (H,W) float32 or None)."""
+    import OpenImageIO as oiio
+
+    path = os.fspath(path)
+    oiio.geterror()  # drop any stale error left by an earlier call
+    config = oiio.ImageSpec()
+    # Without this OIIO premultiplies straight-alpha files (PNG) on read.
+    config.attribute("oiio:UnassociatedAlpha", 1)
+    image_input = oiio.ImageInput.open(path, config)
+    if image_input is None:
+        raise VtoError(f"cannot read image {path}: {_one_line(oiio.geterror())}")
+    try:
+        spec = image_input.spec()
+        channel_count = spec.nchannels
+        if channel_count not in (1, 2, 3, 4) or spec.depth > 1:
+            raise VtoError(
+                f"cannot read image {path}: {channel_count} channels and depth {spec.depth}, "
+                "expected a flat image with 1 to 4 channels"
+            )
+        # Integer formats are normalised to [0, 1] by OIIO's float conversion;
+        # float formats come back as stored.
+        pixels = image_input.read_image(0, 0, 0, channel_count, "float")
+        if pixels is None:
+            reason = image_input.geterror() or oiio.geterror()
+            raise VtoError(f"cannot read image {path}: {_one_line(reason)}")
+    finally:
+        image_input.close()
+
+    pixels = np.asarray(pixels, dtype=np.float32)
+    if channel_count in (1, 2):
+        rgb = np.repeat(pixels[:, :, :1], 3, axis=2)
+    else:
+        rgb = pixels[:, :, :3]
+    alpha = pixels[:, :, channel_count - 1] if channel_count in (2, 4) else None
+    return np.ascontiguousarray(rgb), None if alpha is None else np.ascontiguousarray(alpha)
+
+
+def require_finite(image, what):
+    """Raise VtoError naming `what` if `image` (H,W) or (H,W,C) holds any NaN or inf pixel."""
+    image = np.asarray(image)
+    bad = ~np.isfinite(image)
+    if image.ndim == 3:
+        bad = bad.any(axis=2)
+    bad_pixel_count = int(np.count_nonzero(bad))
+    if bad_pixel_count:
+        raise VtoError(f"{what} has {bad_pixel_count} non-finite (NaN or inf) pixel(s)")
+
+
+def _validated_pixels(path, rgb, alpha, bits):
+    """Check the arguments of write_image and return (pixels (H,W,C) float32, bits)."""
+    extension = os.path.splitext(path)[1].lower()
+    allowed_bits = _BITS_BY_EXTENSION.get(extension)
+    if allowed_bits is None:
+        known = ", ".join(sorted(_BITS_BY_EXTENSION))
+        raise VtoError(f"cannot write image {path}: unknown extension {extension!r} (known: {known})")
+    if bits is None:
+        bits = allowed_bits[0]
+    if isinstance(bits, bool) or bits not in allowed_bits:
+        raise VtoError(
+            f"cannot write image {path}: bits={bits!r} not allowed for {extension}, use one of {allowed_bits}"
+        )
+    if alpha is not None and extension in (".jpg", ".jpeg"):
+        raise VtoError(f"cannot write image {path}: JPEG cannot store alpha")
+
+    rgb = np.asarray(rgb, dtype=np.float32)
+    if rgb.ndim == 2:
+        rgb = rgb[:, :, np.newaxis]
+    if rgb.ndim != 3 or rgb.shape[2] not in (1, 3) or rgb.shape[0] == 0 or rgb.shape[1] == 0:
+        raise VtoError(f"cannot write image {path}: rgb has shape {rgb.shape}, expected (H,W,3) or (H,W)")
+    channels = [rgb]
+    if alpha is not None:
+        alpha = np.asarray(alpha, dtype=np.float32)
+        if alpha.shape != rgb.shape[:2]:
+            raise VtoError(
+                f"cannot write image {path}: alpha has shape {alpha.shape}, expected {rgb.shape[:2]}"
+            )
+        channels.append(alpha[:, :, np.newaxis])
+    pixels = np.concatenate(channels, axis=2)
+
+    if bits in _NUMPY_INT_TYPE_BY_BITS:
+        require_finite(pixels, f"image data for {path}")
+    return pixels, bits
+
+
+def _quantised(pixels, bits):
+    """Return float pixels (H,W,C) as stored for `bits`: clipped and rounded integers, or float32."""
+    int_type = _NUMPY_INT_TYPE_BY_BITS.get(bits)
+    if int_type is None:
+        return np.ascontiguousarray(pixels, dtype=np.float32)
+    max_code = np.iinfo(int_type).max
+    return np.rint(np.clip(pixels, 0.0, 1.0) * max_code).astype(int_type)
+
+
+def write_image(path, rgb, alpha=None, bits=None):
+    """Write rgb (H,W,3) or gray (H,W) and optional alpha (H,W) atomically to `path`; return the path.
+
+    The format comes from the extension: .png (bits 8 or 16), .jpg/.jpeg (8,
+    no alpha), .exr ('half' or 'float'), .tif/.tiff (8, 16 or 'float'); the
+    first listed is the default.  Integer formats clip to [0, 1] and refuse
+    NaN/inf.  The data go to a temporary file beside `path` that replaces it
+    only once complete, so a failed write leaves `path` untouched.
+    """
+    import OpenImageIO as oiio
+
+    path = os.fspath(path)
+    pixels, bits = _validated_pixels(path, rgb, alpha, bits)
+    parent = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(parent):
+        raise VtoError(f"cannot write image {path}: directory {parent} does not exist")
+
+    height, width, channel_count = pixels.shape
+    spec = oiio.ImageSpec(width, height, channel_count, _OIIO_TYPE_BY_BITS[bits])
+    spec.channelnames = _CHANNEL_NAMES_BY_COUNT[channel_count]
+    spec.alpha_channel = channel_count - 1 if alpha is not None else -1
+    # Without this OIIO un-premultiplies colour before writing straight-alpha formats (PNG).
+    spec.attribute("oiio:UnassociatedAlpha", 1)
+
+    # Keep the real extension last so OIIO picks the format from the temp name.
+    stem, extension = os.path.splitext(path)
+    temp_path = f"{stem}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}{extension}"
+    try:
+        oiio.geterror()  # drop any stale error left by an earlier call
+        image_output = oiio.ImageOutput.create(temp_path)
+        if image_output is None:
+            raise VtoError(f"cannot write image {path}: {_one_line(oiio.geterror())}")
+        if not image_output.open(temp_path, spec):
+            raise VtoError(f"cannot write image {path}: {_one_line(image_output.geterror())}")
+        written = image_output.write_image(_quantised(pixels, bits))
+        closed = image_output.close()
+        if not (written and closed):
+            raise VtoError(f"cannot write image {path}: {_one_line(image_output.geterror())}")
+        try:
+            os.replace(temp_path, path)
+        except OSError as error:
+            raise VtoError(f"cannot write image {path}: {error}") from error
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.remove(temp_path)
+        raise
+    return path

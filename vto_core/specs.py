@@ -1,0 +1,261 @@
+"""Parameter specs: one source of truth for sockets, sampling, networks and ONNX metadata."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import warnings
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .errors import VtoError
+
+# The saturating map u = v / (v + scale) never reaches 1; capping u keeps from_unit finite.
+UNIT_CAP = 1.0 - 1e-7
+FLOAT_MAX = sys.float_info.max
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One renderer parameter: its Blender socket, range, default and [0,1] mapping."""
+
+    name: str
+    socket: str
+    low: float
+    high: float  # math.inf for [low, +inf)
+    default: float
+    unit: str = ""
+    group: str = ""
+    wraps: bool = False  # hue: high is the same value as low
+    scale: float = 1.0  # unbounded ranges: the value that maps to 0.5
+    description: str = ""
+
+    @property
+    def bounded(self) -> bool:
+        """Whether the range has a finite upper end."""
+        return math.isfinite(self.high)
+
+    @property
+    def sample_high(self) -> float:
+        """The largest value from_unit can return (the cap of an unbounded range)."""
+        return self.high if self.bounded else self.from_unit(1.0)
+
+    def clamp(self, value: float) -> float:
+        """Bring a raw value into range: wrap if the parameter wraps, else clamp with a warning."""
+        value = float(value)
+        if math.isnan(value):
+            raise VtoError(f"parameter '{self.name}' is NaN")
+        if self.wraps:
+            if not math.isfinite(value):
+                raise VtoError(f"parameter '{self.name}' is {value}; a wrapping parameter needs a finite value")
+            span = self.high - self.low
+            return self.low + (value - self.low) % span
+        if value < self.low or value > self.high or value == math.inf:
+            clamped = min(max(value, self.low), self.high if self.bounded else FLOAT_MAX)
+            warnings.warn(
+                f"parameter '{self.name}' = {value:g} is outside [{self.low:g}, {self.high:g}]; clamped to {clamped:g}",
+                stacklevel=3,
+            )
+            return clamped
+        return value
+
+    def to_unit(self, value: float) -> float:
+        """Raw value -> [0,1] (affine, or v/(v+scale) for an unbounded range)."""
+        value = self.clamp(value) - self.low
+        if self.bounded:
+            unit = value / (self.high - self.low)
+            return 0.0 if self.wraps and unit >= 1.0 else unit
+        # v / (v + s) overflows for v near float max; s / v is tiny there instead.
+        if value > 1.0:
+            return 1.0 / (1.0 + self.scale / value)
+        return value / (value + self.scale)
+
+    def from_unit(self, unit: float) -> float:
+        """[0,1] -> raw value; out-of-range units are clamped (or wrapped for hue)."""
+        unit = float(unit)
+        if math.isnan(unit):
+            raise VtoError(f"normalised value of '{self.name}' is NaN")
+        if self.wraps:
+            unit = unit % 1.0
+        unit = min(max(unit, 0.0), 1.0)
+        if self.bounded:
+            return self.low + unit * (self.high - self.low)
+        unit = min(unit, UNIT_CAP)
+        return self.low + self.scale * unit / (1.0 - unit)
+
+
+@dataclass(frozen=True)
+class RendererSpec:
+    """A renderer's parameters and the subset that is modelled, in a stable vector order."""
+
+    renderer: str
+    params: tuple[ParamSpec, ...]
+    modelled: tuple[str, ...] = field(default=())
+
+    def __post_init__(self):
+        if not self.modelled:
+            object.__setattr__(self, "modelled", tuple(p.name for p in self.params))
+
+    @property
+    def by_name(self) -> dict[str, ParamSpec]:
+        """All parameters keyed by name."""
+        return {p.name: p for p in self.params}
+
+    @property
+    def modelled_params(self) -> tuple[ParamSpec, ...]:
+        """The modelled parameters in vector order."""
+        by_name = self.by_name
+        return tuple(by_name[n] for n in self.modelled)
+
+    @property
+    def size(self) -> int:
+        """Length of the parameter vector g."""
+        return len(self.modelled)
+
+    def select(self, names) -> "RendererSpec":
+        """A spec modelling only `names` (comma string or iterable); vector order stays the spec's order."""
+        if isinstance(names, str):
+            names = [n.strip() for n in names.split(",") if n.strip()]
+        names = list(names)
+        unknown = [n for n in names if n not in self.by_name]
+        if unknown:
+            raise VtoError(
+                f"unknown {self.renderer} parameter(s) {', '.join(unknown)}; known: {', '.join(p.name for p in self.params)}"
+            )
+        if not names:
+            raise VtoError("select needs at least one parameter name")
+        order = [p.name for p in self.params if p.name in set(names)]
+        return RendererSpec(self.renderer, self.params, tuple(order))
+
+    def defaults(self) -> dict[str, float]:
+        """Every parameter at its default."""
+        return {p.name: p.default for p in self.params}
+
+    def full_values(self, values: dict[str, float] | None = None) -> dict[str, float]:
+        """All parameters: defaults overridden by `values` (checked and clamped)."""
+        full = self.defaults()
+        for name, value in (values or {}).items():
+            if name not in full:
+                raise VtoError(f"unknown {self.renderer} parameter '{name}'")
+            full[name] = self.by_name[name].clamp(value)
+        return full
+
+    def vector(self, values: dict[str, float]) -> np.ndarray:
+        """Raw values of the modelled parameters: dict -> (size,) float64; missing names take defaults."""
+        full = self.full_values(values)
+        return np.array([full[n] for n in self.modelled], dtype=np.float64)
+
+    def values(self, vector) -> dict[str, float]:
+        """Raw vector (size,) -> dict of all parameters (unmodelled ones at defaults)."""
+        vector = np.asarray(vector, dtype=np.float64).reshape(-1)
+        if vector.shape[0] != self.size:
+            raise VtoError(f"{self.renderer} vector has {vector.shape[0]} values; the spec models {self.size}")
+        return self.full_values(dict(zip(self.modelled, vector.tolist())))
+
+    def normalise(self, raw) -> np.ndarray:
+        """Raw values (..., size) -> [0,1] values (..., size) float32."""
+        raw = np.asarray(raw, dtype=np.float64)
+        self._check_width(raw)
+        flat = raw.reshape(-1, self.size)
+        out = np.array([[p.to_unit(v) for p, v in zip(self.modelled_params, row)] for row in flat])
+        return out.reshape(raw.shape).astype(np.float32)
+
+    def denormalise(self, unit) -> np.ndarray:
+        """[0,1] values (..., size) -> raw values (..., size) float64."""
+        unit = np.asarray(unit, dtype=np.float64)
+        self._check_width(unit)
+        flat = unit.reshape(-1, self.size)
+        out = np.array([[p.from_unit(u) for p, u in zip(self.modelled_params, row)] for row in flat])
+        return out.reshape(unit.shape)
+
+    def _check_width(self, array: np.ndarray) -> None:
+        if array.ndim == 0 or array.shape[-1] != self.size:
+            raise VtoError(f"expected a last axis of {self.size} {self.renderer} values, got shape {array.shape}")
+
+    def to_dict(self) -> dict:
+        """JSON-ready form (infinite ends written as null)."""
+        params = []
+        for p in self.params:
+            entry = asdict(p)
+            entry["high"] = p.high if p.bounded else None
+            params.append(entry)
+        return {"renderer": self.renderer, "modelled": list(self.modelled), "params": params}
+
+    def to_json(self) -> str:
+        """Compact JSON for manifests and ONNX metadata."""
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "RendererSpec":
+        """Inverse of to_dict."""
+        try:
+            params = tuple(
+                ParamSpec(**{**p, "high": math.inf if p["high"] is None else p["high"]}) for p in data["params"]
+            )
+            return cls(data["renderer"], params, tuple(data["modelled"]))
+        except (KeyError, TypeError) as exc:
+            raise VtoError(f"not a renderer spec: {exc}") from None
+
+    def same_as(self, other: "RendererSpec") -> bool:
+        """Whether two specs give the same vector (renderer, modelled names, ranges)."""
+        return self.to_dict() == other.to_dict()
+
+
+def _lipstick() -> RendererSpec:
+    main, ext = "main", "extended"
+    p = ParamSpec
+    return RendererSpec(
+        "lipstick",
+        (
+            p("opacity", "Opacity", 0.0, 1.0, 0.8, "", main, description="Makeup coverage over the bare lips"),
+            p("red", "Red", 0.0, 255.0, 170.0, "8-bit sRGB", main, description="Makeup colour, red"),
+            p("green", "Green", 0.0, 255.0, 40.0, "8-bit sRGB", main, description="Makeup colour, green"),
+            p("blue", "Blue", 0.0, 255.0, 60.0, "8-bit sRGB", main, description="Makeup colour, blue"),
+            p("gloss", "Gloss", 0.0, math.inf, 0.5, "", main, scale=1.0, description="Amount of gloss (specular strength)"),
+            p("gloss_roughness", "Gloss Roughness", 0.0, 1.0, 0.3, "", main, description="Roughness of the gloss layer"),
+            p("reflection", "Reflection", 0.0, 1.0, 0.2, "", main, description="Environment reflection intensity"),
+            p("sparkle_density", "Sparkle Density", 0.0, 1.0, 0.0, "", ext, description="Fraction of the surface with glitter"),
+            p("sparkle_size", "Sparkle Size", 0.0, 1.0, 0.3, "", ext, description="Size of the glitter flakes"),
+            p("sparkle_intensity", "Sparkle Intensity", 0.0, 1.0, 0.5, "", ext, description="Brightness of the flakes"),
+            p("sparkle_red", "Sparkle Red", 0.0, 255.0, 255.0, "8-bit sRGB", ext, description="Flake colour, red"),
+            p("sparkle_green", "Sparkle Green", 0.0, 255.0, 255.0, "8-bit sRGB", ext, description="Flake colour, green"),
+            p("sparkle_blue", "Sparkle Blue", 0.0, 255.0, 255.0, "8-bit sRGB", ext, description="Flake colour, blue"),
+            p("lip_line", "Lip Line", 0.0, 1.0, 0.0, "", ext, description="Darkening of the lip contour (lip-liner)"),
+            p("texture", "Texture", 0.0, 1.0, 0.0, "", ext, description="Bump strength of the creamy texture"),
+            p("metallic", "Metallic", 0.0, 1.0, 0.0, "", ext, description="Metallic finish"),
+            p("sheen", "Sheen", 0.0, 1.0, 0.0, "", ext, description="Satin sheen"),
+        ),
+    )
+
+
+def _hair() -> RendererSpec:
+    sw, non = "swatch", "non-swatch"
+    p = ParamSpec
+    return RendererSpec(
+        "hair",
+        (
+            p("brightness", "Brightness", -0.3, 0.3, 0.0, "", sw, description="Added to the swatch values"),
+            p("contrast", "Contrast", 0.5, 2.0, 1.0, "", sw, description="Swatch contrast around mid-grey"),
+            p("exposure", "Exposure", 0.5, 2.0, 1.0, "factor", sw, description="Swatch gain"),
+            p("gamma", "Gamma", 0.5, 3.0, 1.0, "", sw, description="Swatch gamma (y = x^(1/gamma))"),
+            p("hue", "Hue", 0.0, 1.0, 0.0, "turns", sw, wraps=True, description="Swatch hue shift (wraps)"),
+            p("saturation", "Saturation", 0.0, 3.0, 1.0, "factor", sw, description="Swatch saturation factor"),
+            p("blend", "Blend", -1.0, 1.0, -1.0, "", non, description="Faded look: gradient offset from the top of the hair"),
+            p("intensity", "Intensity", 0.0, 1.0, 1.0, "", non, description="Strength of the colour change"),
+            p("shine", "Shine", 0.0, 1.0, 0.0, "", non, description="Contrast boost of the recoloured hair"),
+        ),
+    )
+
+
+RENDERERS = {"lipstick": _lipstick(), "hair": _hair()}
+
+
+def get_spec(renderer: str, params: str | list[str] | None = None) -> RendererSpec:
+    """The built-in spec of `renderer`, optionally with only `params` modelled."""
+    try:
+        spec = RENDERERS[renderer]
+    except KeyError:
+        raise VtoError(f"unknown renderer '{renderer}'; choose from {', '.join(RENDERERS)}") from None
+    return spec.select(params) if params else spec
