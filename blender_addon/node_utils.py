@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import bpy
 
-from vto_core.specs import FLOAT_MAX, RendererSpec
+from collections.abc import Iterable
+
+from vto_core.specs import ParamSpec
 
 # Bumped whenever a builder changes what it builds, so older groups in saved files are rebuilt.
 BUILDER_VERSION = 1
 VERSION_KEY = "vto_builder_version"
+SOCKET_MAX = 3.0e38  # sockets are float32: the top of an unbounded range
 
 
 class Builder:
@@ -71,13 +74,13 @@ def get_or_create_group(name: str, tree_type: str, build) -> bpy.types.NodeTree:
     return group
 
 
-def add_spec_inputs(group: bpy.types.NodeTree, spec: RendererSpec) -> None:
-    """One float input per spec parameter: socket name, default, range and tooltip from the spec."""
-    for param in spec.params:
+def add_spec_inputs(group: bpy.types.NodeTree, params: Iterable[ParamSpec]) -> None:
+    """One float input per parameter: socket name, default, range and tooltip from the spec."""
+    for param in params:
         socket = group.interface.new_socket(param.socket, in_out="INPUT", socket_type="NodeSocketFloat")
         socket.default_value = param.default
         socket.min_value = param.low
-        socket.max_value = param.high if param.bounded else FLOAT_MAX
+        socket.max_value = param.high if param.bounded else SOCKET_MAX
         socket.description = param.description
 
 

@@ -14,7 +14,7 @@ SHADER_TREE = "ShaderNodeTree"
 
 # Looks chosen by eye at 64-256 px; gloss is unbounded, so its layer colour is gloss * GLOSS_GAIN.
 BASE_ROUGHNESS = 0.55
-GLOSS_GAIN = 0.25
+GLOSS_GAIN = 0.12
 REFLECTION_ROUGHNESS = 0.03
 SPARKLE_SCALE_FINE, SPARKLE_SCALE_COARSE = 400.0, 60.0
 SPARKLE_GAIN = 3.0
@@ -55,7 +55,7 @@ def _build_lipstick(group: bpy.types.NodeTree) -> None:
     group.interface.new_socket("Lips", in_out="INPUT", socket_type="NodeSocketShader").description = (
         "The lips' own shader, seen where the makeup is transparent"
     )
-    add_spec_inputs(group, spec)
+    add_spec_inputs(group, spec.params)
     group.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
     b = Builder(group, "Shader")
     gin = b.node("NodeGroupInput").outputs

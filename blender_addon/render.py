@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 import tempfile
 
 import bpy
@@ -35,6 +37,7 @@ def configure_cycles(scene: bpy.types.Scene, res: int, samples: int, seed: int =
     cycles.glossy_bounces = 2
     cycles.transmission_bounces = 2
     cycles.transparent_max_bounces = 2
+    cycles.sample_clamp_indirect = 4.0  # fireflies from small bright HDRI spots dominate 16-sample noise
     scene.render.resolution_x = scene.render.resolution_y = res
     scene.render.resolution_percentage = 100
     scene.render.use_compositing = False
@@ -99,16 +102,28 @@ def read_exr_layers(path: str) -> dict[str, np.ndarray]:
     }
 
 
+@contextlib.contextmanager
+def _quiet_stdout():
+    """Silence Blender's per-render progress lines (they are written to fd 1 from C)."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
+
+
 def render_passes(scene: bpy.types.Scene) -> dict[str, np.ndarray]:
     """Render `scene` (already configured) and return its passes as linear float32 arrays."""
     path = _render_path()
     scene.render.filepath = path
     scene.render.use_file_extension = False
-    window_scene = bpy.context.window.scene if bpy.context.window else None
-    with bpy.context.temp_override(scene=scene):
+    with bpy.context.temp_override(scene=scene), _quiet_stdout():
         bpy.ops.render.render(write_still=True, scene=scene.name)
-    if window_scene is not None:
-        bpy.context.window.scene = window_scene
     layers = read_exr_layers(path)
     os.remove(path)
     return layers

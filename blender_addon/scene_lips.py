@@ -27,6 +27,7 @@ LIP_COLUMNS, LIP_ROWS = 48, 12  # per lip: across the mouth, outer contour -> mo
 SKIN_COLUMNS, SKIN_ROWS = 80, 60
 SKIN_HALF_WIDTH, SKIN_HALF_HEIGHT = 2.2, 1.6
 MOUTH_DEPTH = 0.35
+HDRI_WIDTH = 256  # 0.07 s per render instead of 1.1 s at full size (importance map rebuilt each render)
 
 # sRGB 8-bit tones, light to dark.
 SKIN_TONES = [(241, 194, 167), (224, 172, 138), (198, 146, 110), (161, 110, 75), (118, 78, 52), (80, 52, 36)]
@@ -37,6 +38,14 @@ def hdri_paths() -> list[str]:
     """Blender's bundled studio-light HDRIs (CC0), sorted so a seed picks the same file everywhere."""
     folder = os.path.join(bpy.utils.system_resource("DATAFILES"), "studiolights", "world")
     return sorted(os.path.join(folder, f) for f in os.listdir(folder) if f.endswith(".exr"))
+
+
+def load_hdri(path: str) -> bpy.types.Image:
+    """Load an HDRI once, downscaled: at small render sizes the full map only costs importance-map time."""
+    image = bpy.data.images.load(path, check_existing=True)
+    if image.size[0] > HDRI_WIDTH:
+        image.scale(HDRI_WIDTH, HDRI_WIDTH // 2)
+    return image
 
 
 def lip_shape(rng: np.random.Generator) -> dict[str, float]:
@@ -152,7 +161,9 @@ def _world(scene) -> None:
     mapping.name = "HDRI Rotation"
     environment = nodes.new("ShaderNodeTexEnvironment")
     environment.name = "HDRI"
-    environment.image = bpy.data.images.load(hdri_paths()[0], check_existing=True)
+    environment.image = load_hdri(hdri_paths()[0])
+    world.cycles.sampling_method = "MANUAL"
+    world.cycles.sample_map_resolution = HDRI_WIDTH // 2
     links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
     links.new(mapping.outputs[0], environment.inputs["Vector"])
     links.new(environment.outputs[0], nodes["Background"].inputs["Color"])
@@ -180,7 +191,7 @@ def build_lips_scene() -> bpy.types.Scene:
     skin = _mesh_object(scene, SKIN_OBJECT, skin_positions, _grid_faces(SKIN_COLUMNS, SKIN_ROWS), _skin_material())
     skin.data.attributes.new("mouth", "FLOAT", "POINT")
     camera = bpy.data.objects.new("VTO Camera", bpy.data.cameras.new("VTO Camera"))
-    camera.data.lens = 50.0
+    camera.data.lens = 62.0
     scene.collection.objects.link(camera)
     scene.camera = camera
     _world(scene)
@@ -211,7 +222,7 @@ def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
 
     world_nodes = scene.world.node_tree.nodes
     paths = hdri_paths()
-    world_nodes["HDRI"].image = bpy.data.images.load(paths[rng.integers(len(paths))], check_existing=True)
+    world_nodes["HDRI"].image = load_hdri(paths[rng.integers(len(paths))])
     world_nodes["HDRI Rotation"].inputs["Rotation"].default_value = (0.0, 0.0, rng.uniform(0, 2 * math.pi))
     world_nodes["Background"].inputs["Strength"].default_value = rng.uniform(0.6, 1.6)
 

@@ -78,21 +78,20 @@ def apply_lut(values, lut_x, lut_y):
 
 @dataclass(frozen=True)
 class HistogramMatch:
-    """A gray LUT then one LUT per channel, in the order Blender's RGB Curves applies C then R, G, B."""
+    """One LUT per channel, then a gray LUT on every channel: the order Blender's RGB Curves applies R, G, B then C."""
 
     gray_lut: tuple
     channel_luts: tuple
 
     def apply(self, rgb):
-        """rgb: (..., 3) float -> (..., 3) float32, out_c = channel_lut_c(gray_lut(x_c))."""
+        """rgb: (..., 3) float -> (..., 3) float32, out_c = gray_lut(channel_lut_c(x_c))."""
         rgb = np.asarray(rgb, dtype=np.float64)
         if rgb.ndim == 0 or rgb.shape[-1] != 3:
             raise VtoError(f"rgb must have shape (..., 3), got {rgb.shape}")
-        gray_mapped = apply_lut(rgb, *self.gray_lut)
-        return np.stack(
-            [apply_lut(gray_mapped[..., channel], *self.channel_luts[channel]) for channel in range(3)],
-            axis=-1,
+        channel_mapped = np.stack(
+            [apply_lut(rgb[..., channel], *self.channel_luts[channel]) for channel in range(3)], axis=-1
         )
+        return apply_lut(channel_mapped, *self.gray_lut)
 
 
 def _inside_mask(rgb, mask, rgb_name, mask_name):
@@ -126,14 +125,16 @@ def fit_histogram_match(source_rgb, reference_rgb, source_mask=None, reference_m
             channel_luts=tuple(_identity_lut(n_points) for _ in range(3)),
         )
 
-    gray_lut = _match_checked(
-        luminance(source_pixels).astype(np.float64),
-        luminance(reference_pixels).astype(np.float64),
-        n_points,
-    )
-    gray_mapped = apply_lut(source_pixels, *gray_lut).astype(np.float64)
     channel_luts = tuple(
-        _match_checked(gray_mapped[:, channel], reference_pixels[:, channel], n_points)
-        for channel in range(3)
+        _match_checked(source_pixels[:, channel], reference_pixels[:, channel], n_points) for channel in range(3)
     )
+    channel_mapped = np.stack(
+        [apply_lut(source_pixels[:, channel], *channel_luts[channel]) for channel in range(3)], axis=-1
+    ).astype(np.float64)
+    channel_gray = luminance(channel_mapped).astype(np.float64)
+    if np.ptp(channel_gray) < _CONSTANT_SPREAD:
+        # A constant LUT here would paint every channel one gray; the channel LUTs already did the match.
+        gray_lut = _identity_lut(n_points)
+    else:
+        gray_lut = _match_checked(channel_gray, luminance(reference_pixels).astype(np.float64), n_points)
     return HistogramMatch(gray_lut=gray_lut, channel_luts=channel_luts)

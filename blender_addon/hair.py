@@ -1,0 +1,178 @@
+"""Render API of the hair renderer R(X, g): a hair source (Cycles scene or photo + mask), then two compositor passes."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from vto_core.errors import VtoError
+from vto_core.hair import LUT_POINTS, fit_hair_match, hair_gradient
+from vto_core.imageio import read_image
+from vto_core.specs import get_spec
+
+from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, set_lut, swatch_group
+from .render import configure_cycles, render_passes, to_display
+from .scene_hair import HAIR_PASS_INDEX, apply_source, build_hair_scene
+
+SWATCH_PATH = Path(__file__).parent / "data" / "hair_swatch.png"
+PASS_SCENES = {SWATCH_GROUP: "VTO Hair Swatch Pass", COLOR_GROUP: "VTO Hair Color Pass"}
+STAGE_IMAGES = ("VTO Hair Source", "VTO Hair Mask", "VTO Hair Gradient", "VTO Hair Swatch Image")
+
+
+@dataclass
+class HairSource:
+    """One hair source X: display-sRGB pixels (H, W, 3) and a hair mask (H, W) in [0,1]."""
+
+    rgb: np.ndarray
+    mask: np.ndarray
+
+
+def render_hair_source(source_seed: int, res: int = 64, samples: int = 16, seed: int = 0) -> HairSource:
+    """Render the default hair scene for `source_seed`; the mask is the hair object's index pass."""
+    scene = build_hair_scene()
+    if scene.get("vto_source_seed") != int(source_seed):
+        apply_source(scene, int(source_seed))
+    configure_cycles(scene, res, samples, seed)
+    passes = render_passes(scene)
+    mask = (np.abs(passes["IndexOB"][..., 0] - HAIR_PASS_INDEX) < 0.5).astype(np.float32)
+    return HairSource(to_display(passes["Combined"][..., :3]), mask)
+
+
+def mask_path_for(photo: Path) -> Path:
+    """The mask beside a photo: same folder, stem + '_mask', any image extension."""
+    for candidate in sorted(photo.parent.glob(photo.stem + "_mask.*")):
+        return candidate
+    raise VtoError(f"no mask for {photo}: expected {photo.stem}_mask.png (or another image type) beside it")
+
+
+def photo_sources(folder: str | os.PathLike) -> list[Path]:
+    """The photos of a user folder (every image with a '<stem>_mask' partner), sorted."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise VtoError(f"hair source folder {folder} does not exist")
+    photos = sorted(p for p in folder.iterdir() if p.suffix.lower() in (".png", ".jpg", ".jpeg", ".exr", ".tif", ".tiff")
+                    and not p.stem.endswith("_mask"))
+    photos = [p for p in photos if any(p.parent.glob(p.stem + "_mask.*"))]
+    if not photos:
+        raise VtoError(f"{folder} holds no photo with a '<name>_mask' image beside it")
+    return photos
+
+
+def load_photo_source(photo: str | os.PathLike, res: int | None = None) -> HairSource:
+    """A user photo and its mask (mask > 0.5 is hair); optionally resized to res x res."""
+    photo = Path(photo)
+    rgb, _ = read_image(photo)
+    mask_rgb, _ = read_image(mask_path_for(photo))
+    mask = mask_rgb.mean(axis=-1)
+    if mask.shape != rgb.shape[:2]:
+        raise VtoError(f"mask of {photo} is {mask.shape[1]}x{mask.shape[0]}, the photo {rgb.shape[1]}x{rgb.shape[0]}")
+    if res is not None and rgb.shape[:2] != (res, res):
+        rgb, mask = _resize(rgb, res), _resize(mask[..., None], res)[..., 0]
+    return HairSource(np.clip(rgb, 0, 1).astype(np.float32), (mask > 0.5).astype(np.float32))
+
+
+def _resize(image: np.ndarray, res: int) -> np.ndarray:
+    """Area-average resize through OpenImageIO: (H, W, C) -> (res, res, C)."""
+    import OpenImageIO as oiio
+
+    source = oiio.ImageBuf(np.ascontiguousarray(image, dtype=np.float32))
+    resized = oiio.ImageBufAlgo.resize(source, roi=oiio.ROI(0, res, 0, res, 0, 1, 0, image.shape[2]))
+    return resized.get_pixels(oiio.FLOAT).reshape(res, res, image.shape[2])
+
+
+def load_swatch(path: str | os.PathLike | None = None) -> np.ndarray:
+    """The reference hair swatch (h, w, 3) display values."""
+    rgb, _ = read_image(path or SWATCH_PATH)
+    return np.clip(rgb, 0, 1)
+
+
+def _stage_image(name: str, pixels: np.ndarray) -> bpy.types.Image:
+    """Put (H, W, 3|1) values into a float, Non-Color image `name` (reused, resized as needed)."""
+    height, width = pixels.shape[:2]
+    image = bpy.data.images.get(name)
+    if image is None:
+        image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True, is_data=True)
+    elif tuple(image.size) != (width, height):
+        image.scale(width, height)
+    image.colorspace_settings.name = "Non-Color"
+    rgba = np.ones((height, width, 4), np.float32)
+    rgba[..., :3] = pixels if pixels.ndim == 3 and pixels.shape[2] == 3 else np.reshape(pixels, (height, width, 1))
+    image.pixels.foreach_set(np.flipud(rgba).reshape(-1))  # Blender stores the bottom row first
+    image.update()
+    return image
+
+
+def _pass_scene(group_name: str) -> bpy.types.Scene:
+    """Get or create the compositor-only scene that runs one group: Image nodes -> group -> Composite."""
+    name = PASS_SCENES[group_name]
+    scene = bpy.data.scenes.get(name)
+    if scene is not None:
+        return scene
+    scene = bpy.data.scenes.new(name)
+    camera = bpy.data.objects.get("VTO Stage Camera") or bpy.data.objects.new("VTO Stage Camera", bpy.data.cameras.new("VTO Stage Camera"))
+    scene.collection.objects.link(camera)
+    scene.camera = camera  # a compositor-only render still needs one
+    scene.use_nodes = True
+    tree = scene.node_tree
+    tree.nodes.clear()
+    group = swatch_group() if group_name == SWATCH_GROUP else color_group()
+    node = tree.nodes.new("CompositorNodeGroup")
+    node.name = group_name
+    node.node_tree = group
+    inputs = ("VTO Hair Swatch Image",) if group_name == SWATCH_GROUP else STAGE_IMAGES[:3]
+    for index, (image_name, socket) in enumerate(zip(inputs, ("Image", "Mask", "Gradient"))):
+        image_node = tree.nodes.new("CompositorNodeImage")
+        image_node.name = image_name
+        image_node.location = (-300, -200 * index)
+        tree.links.new(image_node.outputs["Image"], node.inputs[socket])
+    composite = tree.nodes.new("CompositorNodeComposite")
+    composite.location = (300, 0)
+    tree.links.new(node.outputs[0], composite.inputs["Image"])
+    return scene
+
+
+def _run_pass(group_name: str, images: dict[str, np.ndarray], values: dict[str, float]) -> np.ndarray:
+    """Fill the pass's images and group inputs, render the compositor, return (H, W, 3) values."""
+    scene = _pass_scene(group_name)
+    tree = scene.node_tree
+    for name, pixels in images.items():
+        tree.nodes[name].image = _stage_image(name, pixels)
+    group_node = tree.nodes[group_name]
+    for param in get_spec("hair").params:
+        if param.socket in group_node.inputs:
+            group_node.inputs[param.socket].default_value = values[param.name]
+    height, width = next(iter(images.values())).shape[:2]
+    configure_cycles(scene, 8, 1)
+    scene.render.resolution_x, scene.render.resolution_y = width, height
+    scene.render.use_compositing = True
+    settings = scene.render.image_settings
+    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGB"
+    return render_passes(scene)["Combined"][..., :3]
+
+
+def run_hair_stage(source: HairSource, values: dict[str, float], swatch: np.ndarray | None = None) -> np.ndarray:
+    """Both compositor passes on `source` with hair `values`: (H, W, 3) display values."""
+    values = get_spec("hair").full_values(values)
+    swatch = load_swatch() if swatch is None else swatch
+    recoloured = _run_pass(SWATCH_GROUP, {"VTO Hair Swatch Image": swatch}, values)
+    match = fit_hair_match(source.rgb, source.mask, np.clip(recoloured, 0, 1))
+    set_lut(color_group(), match.gray_lut, match.channel_luts)
+    stage_inputs = dict(zip(STAGE_IMAGES[:3], (source.rgb, source.mask, hair_gradient(source.mask))))
+    return np.clip(_run_pass(COLOR_GROUP, stage_inputs, values), 0, 1).astype(np.float32)
+
+
+def resolve_hair_source(source, res: int, samples: int, seed: int) -> HairSource:
+    """An int renders the default scene with that source seed; a path is a photo with a mask beside it."""
+    if isinstance(source, (int, np.integer)) or (isinstance(source, str) and source.isdigit()):
+        return render_hair_source(int(source), res, samples, seed)
+    return load_photo_source(source, res)
+
+
+def render_hair(values: dict[str, float], source=0, res: int = 64, samples: int = 16, seed: int = 0) -> np.ndarray:
+    """R(X, g) for hair: (res, res, 3) display-sRGB float32."""
+    return run_hair_stage(resolve_hair_source(source, res, samples, seed), values)
+

@@ -1,0 +1,105 @@
+"""Compositor groups of the hair stage: "VTO Hair Swatch" (pass 1) and "VTO Hair Color" (pass 2)."""
+
+from __future__ import annotations
+
+import bpy
+
+from vto_core.specs import get_spec
+
+from .node_utils import Builder, add_spec_inputs, get_or_create_group
+
+SWATCH_GROUP = "VTO Hair Swatch"
+COLOR_GROUP = "VTO Hair Color"
+LUT_NODE = "Histogram LUT"
+COMPOSITOR_TREE = "CompositorNodeTree"
+
+
+def _params(group_name: str):
+    return [p for p in get_spec("hair").params if p.group == group_name]
+
+
+def _per_channel(b: Builder, image, channel_fn):
+    """Separate an image, run channel_fn(socket) -> socket on R, G and B, combine again."""
+    split = b.node("SeparateColor")
+    b.link(image, split.inputs[0])
+    join = b.node("CombineColor")
+    for index in range(3):
+        b.link(channel_fn(split.outputs[index]), join.inputs[index])
+    return join.outputs[0]
+
+
+def _build_swatch(group: bpy.types.NodeTree) -> None:
+    """Brightness/contrast, exposure, clamp, gamma, hue shift, saturation, clamp (vto_core.colour.recolour_swatch)."""
+    group.interface.new_socket("Image", in_out="INPUT", socket_type="NodeSocketColor")
+    add_spec_inputs(group, _params("swatch"))
+    group.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+    b = Builder(group, "Compositor")
+    gin = b.node("NodeGroupInput").outputs
+    inverse_gamma = b.math("DIVIDE", 1.0, gin["Gamma"])
+
+    def tone(x):
+        y = b.math("ADD", b.math("MULTIPLY", b.math("SUBTRACT", x, 0.5), gin["Contrast"]), 0.5)
+        y = b.math("MULTIPLY", b.math("ADD", y, gin["Brightness"]), gin["Exposure"], clamp=True)
+        return b.math("POWER", y, inverse_gamma)
+
+    toned = _per_channel(b, gin["Image"], tone)
+    hsv = b.node("HueSat", label="Hue / Saturation")
+    b.link(toned, hsv.inputs["Image"])
+    # The node shifts hue by (input - 0.5); feeding frac(hue + 0.5) shifts it by hue, wrapping.
+    b.link(b.math("FRACT", b.math("ADD", gin["Hue"], 0.5)), hsv.inputs["Hue"])
+    b.link(gin["Saturation"], hsv.inputs["Saturation"])
+    clamped = _per_channel(b, hsv.outputs[0], lambda x: b.math("MULTIPLY", x, 1.0, clamp=True))
+    b.link(clamped, b.node("NodeGroupOutput").inputs[0])
+
+
+def _build_color(group: bpy.types.NodeTree) -> None:
+    """Histogram-matching curves, shine, then mix into the source by mask * faded-look weight * intensity."""
+    for name, kind in (("Image", "NodeSocketColor"), ("Mask", "NodeSocketFloat"), ("Gradient", "NodeSocketFloat")):
+        group.interface.new_socket(name, in_out="INPUT", socket_type=kind)
+    add_spec_inputs(group, _params("non-swatch"))
+    group.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+    b = Builder(group, "Compositor")
+    gin = b.node("NodeGroupInput").outputs
+    lut = b.node("CurveRGB", label="Histogram LUT (set per render)")
+    lut.name = LUT_NODE
+    b.link(gin["Image"], lut.inputs["Image"])
+
+    def shine(x):
+        y = b.math("MULTIPLY", x, 1.0, clamp=True)
+        smooth = b.math("MULTIPLY", b.math("MULTIPLY", y, y), b.math("SUBTRACT", 3.0, b.math("MULTIPLY", y, 2.0)))
+        return b.math("ADD", y, b.math("MULTIPLY", b.math("SUBTRACT", smooth, y), gin["Shine"]))
+
+    shined = _per_channel(b, lut.outputs[0], shine)
+    weight = b.math("MULTIPLY", b.math("SUBTRACT", gin["Gradient"], gin["Blend"]), 2.0, clamp=True)
+    mask = b.math("MULTIPLY", gin["Mask"], 1.0, clamp=True)
+    alpha = b.math("MULTIPLY", b.math("MULTIPLY", mask, weight), gin["Intensity"])
+    mix = b.node("MixRGB", label="Intensity")
+    b.link(alpha, mix.inputs[0])
+    b.link(gin["Image"], mix.inputs[1])
+    b.link(shined, mix.inputs[2])
+    b.link(mix.outputs[0], b.node("NodeGroupOutput").inputs[0])
+
+
+def swatch_group() -> bpy.types.NodeTree:
+    """Get or create the pass-1 compositor group (swatch recolouring)."""
+    return get_or_create_group(SWATCH_GROUP, COMPOSITOR_TREE, _build_swatch)
+
+
+def color_group() -> bpy.types.NodeTree:
+    """Get or create the pass-2 compositor group (LUT, shine, faded look, intensity)."""
+    return get_or_create_group(COLOR_GROUP, COMPOSITOR_TREE, _build_color)
+
+
+def set_lut(group: bpy.types.NodeTree, gray_lut, channel_luts) -> None:
+    """Write the matching LUTs into the group's RGB Curves: C = gray LUT, then R, G, B (vector handles)."""
+    mapping = group.nodes[LUT_NODE].mapping
+    for curve, (xs, ys) in zip((mapping.curves[3], *mapping.curves[:3]), (gray_lut, *channel_luts)):
+        points = curve.points
+        while len(points) > 2:
+            points.remove(points[-1])
+        while len(points) < len(xs):
+            points.new(0.5, 0.5)
+        for point, x, y in zip(points, xs, ys):
+            point.location = (float(x), float(y))
+            point.handle_type = "VECTOR"
+    mapping.update()

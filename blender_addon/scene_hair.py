@@ -1,0 +1,158 @@
+"""The default hair scene: Cycles hair curves on a head, HDRI light, hair mask from the object-index pass.
+
+Built once; `apply_source` moves the strands, recolours and relights in place (no data blocks per sample).
+"""
+
+from __future__ import annotations
+
+import math
+
+import bpy
+import numpy as np
+
+from vto_core.colour import srgb_to_linear
+
+from .scene_lips import SKIN_TONES, hdri_paths, load_hdri
+
+SCENE_NAME = "VTO Hair"
+HAIR_OBJECT = "VTO Hair Strands"
+HEAD_OBJECT = "VTO Head"
+HAIR_MATERIAL = "VTO Hair Material"
+HEAD_MATERIAL = "VTO Head Material"
+HAIR_PASS_INDEX = 1
+STRANDS, POINTS_PER_STRAND = 3000, 8
+HEAD_RADIUS = 1.0
+STRAND_RADIUS = 0.014  # thick enough that 3,000 strands hide the scalp at 64-256 px
+
+
+def strand_positions(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Procedural hairstyle: strand points (STRANDS * POINTS_PER_STRAND, 3) and root polar angles (STRANDS,)."""
+    length = rng.uniform(1.2, 2.6)
+    parting = rng.uniform(-0.4, 0.4)
+    azimuth = rng.uniform(0, 2 * math.pi, STRANDS)
+    # The camera looks from -y: keep the face (azimuth near -pi/2) free below a hairline.
+    facing = np.cos(azimuth + math.pi / 2)  # 1 at the face, -1 at the back
+    max_polar = np.radians(110) - np.radians(rng.uniform(55, 75)) * np.clip(facing, 0, 1)
+    polar = np.arccos(1 - rng.random(STRANDS) * (1 - np.cos(max_polar)))
+    shell = HEAD_RADIUS * rng.uniform(1.03, 1.08)
+    arc = np.linspace(0, 1, POINTS_PER_STRAND)[None, :] * length * rng.uniform(0.85, 1.15, (STRANDS, 1))
+    # Over the head a strand follows the shell, front strands swept aside to clear the face,
+    # then falls straight down.
+    from_face = (azimuth + math.pi / 2 + math.pi) % (2 * math.pi) - math.pi  # 0 at the face
+    swept = -math.pi / 2 + np.sign(from_face) * np.maximum(np.abs(from_face), np.radians(80 + 10 * parting))
+    progress = np.minimum(arc / 0.6, 1.0)
+    phi = azimuth[:, None] + (swept - azimuth)[:, None] * progress
+    front = (np.abs(from_face) < np.radians(80))[:, None]
+    theta = polar[:, None] + np.maximum(arc - 0.6 * front, 0) / shell
+    limit = np.radians(100)
+    over = np.minimum(theta, limit)
+    fall = np.maximum(arc - 0.6 * front - (limit - polar[:, None]) * shell, 0)
+    x = shell * np.sin(over) * np.cos(phi)
+    y = shell * np.sin(over) * np.sin(phi)
+    z = shell * np.cos(over) - fall
+    jitter = rng.normal(0, 0.015, (STRANDS, POINTS_PER_STRAND, 3)) * np.linspace(0, 1, POINTS_PER_STRAND)[None, :, None]
+    points = np.stack([x, y, z], -1) + jitter
+    return points.reshape(-1, 3).astype(np.float32), polar
+
+
+def _hair_material() -> bpy.types.Material:
+    material = bpy.data.materials.new(HAIR_MATERIAL)
+    material.use_nodes = True
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    nodes.clear()
+    hair = nodes.new("ShaderNodeBsdfHairPrincipled")
+    hair.name = "Hair BSDF"
+    hair.parametrization = "MELANIN"  # before touching Melanin: other parametrisations hide it
+    hair.inputs["Roughness"].default_value = 0.3
+    output = nodes.new("ShaderNodeOutputMaterial")
+    links.new(hair.outputs[0], output.inputs["Surface"])
+    return material
+
+
+def _head_material() -> bpy.types.Material:
+    material = bpy.data.materials.new(HEAD_MATERIAL)
+    material.use_nodes = True
+    material.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.5
+    return material
+
+
+def build_hair_scene() -> bpy.types.Scene:
+    """Get or create the hair scene (strands at source 0)."""
+    scene = bpy.data.scenes.get(SCENE_NAME)
+    if scene is not None:
+        return scene
+    scene = bpy.data.scenes.new(SCENE_NAME)
+    mesh = bpy.data.meshes.new(HEAD_OBJECT)
+    import bmesh
+
+    shape = bmesh.new()
+    bmesh.ops.create_uvsphere(shape, u_segments=48, v_segments=24, radius=HEAD_RADIUS)
+    shape.to_mesh(mesh)
+    shape.free()
+    mesh.shade_smooth()
+    mesh.materials.append(_head_material())
+    head = bpy.data.objects.new(HEAD_OBJECT, mesh)
+    head.scale = (0.85, 1.0, 1.15)
+    scene.collection.objects.link(head)
+
+    curves = bpy.data.hair_curves.new(HAIR_OBJECT)
+    curves.add_curves([POINTS_PER_STRAND] * STRANDS)
+    curves.materials.append(_hair_material())
+    hair = bpy.data.objects.new(HAIR_OBJECT, curves)
+    hair.pass_index = HAIR_PASS_INDEX
+    hair.scale = head.scale
+    scene.collection.objects.link(hair)
+    radius = curves.attributes.new("radius", "FLOAT", "POINT")
+    radius.data.foreach_set("value", np.full(STRANDS * POINTS_PER_STRAND, STRAND_RADIUS, dtype=np.float32))
+
+    camera = bpy.data.objects.new("VTO Hair Camera", bpy.data.cameras.new("VTO Hair Camera"))
+    camera.data.lens = 45.0
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+
+    world = bpy.data.worlds.new(SCENE_NAME)
+    world.use_nodes = True
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.name = "HDRI Rotation"
+    environment = nodes.new("ShaderNodeTexEnvironment")
+    environment.name = "HDRI"
+    environment.image = load_hdri(hdri_paths()[0])
+    links.new(nodes.new("ShaderNodeTexCoord").outputs["Generated"], mapping.inputs["Vector"])
+    links.new(mapping.outputs[0], environment.inputs["Vector"])
+    links.new(environment.outputs[0], nodes["Background"].inputs["Color"])
+    world.cycles.sampling_method = "MANUAL"
+    world.cycles.sample_map_resolution = 128
+    scene.world = world
+    scene.view_layers[0].use_pass_object_index = True
+    apply_source(scene, 0)
+    return scene
+
+
+def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
+    """Set hairstyle, hair and skin colour, lighting and camera from `source_seed`, in place."""
+    rng = np.random.default_rng([int(source_seed), 0x4A12])
+    points, _ = strand_positions(rng)
+    curves = scene.objects[HAIR_OBJECT].data
+    curves.position_data.foreach_set("vector", points.reshape(-1))
+    curves.update_tag()
+    hair = bpy.data.materials[HAIR_MATERIAL].node_tree.nodes["Hair BSDF"]
+    hair.inputs["Melanin"].default_value = rng.uniform(0.15, 0.95)
+    hair.inputs["Melanin Redness"].default_value = rng.uniform(0.0, 0.9)
+    hair.inputs["Roughness"].default_value = rng.uniform(0.2, 0.45)
+    tone = np.array(SKIN_TONES[rng.integers(len(SKIN_TONES))]) / 255.0
+    head = bpy.data.materials[HEAD_MATERIAL].node_tree.nodes["Principled BSDF"]
+    head.inputs["Base Color"].default_value = (*srgb_to_linear(tone), 1.0)
+
+    world_nodes = scene.world.node_tree.nodes
+    paths = hdri_paths()
+    world_nodes["HDRI"].image = load_hdri(paths[rng.integers(len(paths))])
+    world_nodes["HDRI Rotation"].inputs["Rotation"].default_value = (0.0, 0.0, rng.uniform(0, 2 * math.pi))
+    world_nodes["Background"].inputs["Strength"].default_value = rng.uniform(0.7, 1.5)
+
+    scene.objects[HEAD_OBJECT].rotation_euler = (0.0, 0.0, rng.normal(0, 0.25))
+    scene.objects[HAIR_OBJECT].rotation_euler = scene.objects[HEAD_OBJECT].rotation_euler
+    camera = scene.camera
+    camera.location = (rng.normal(0, 0.1), -5.2 + rng.normal(0, 0.2), 0.35 + rng.normal(0, 0.1))
+    camera.rotation_euler = (math.radians(88) + rng.normal(0, 0.02), 0.0, rng.normal(0, 0.02))
+    scene["vto_source_seed"] = int(source_seed)

@@ -1,0 +1,65 @@
+"""Numpy reference of the hair-colour stage (paper 4.2), step for step what the compositor groups compute."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .colour import recolour_swatch
+from .errors import VtoError
+from .histogram import HistogramMatch, fit_histogram_match
+
+SWATCH_PARAMS = ("brightness", "contrast", "exposure", "gamma", "hue", "saturation")
+LUT_POINTS = 64
+BLEND_RAMP = 2.0  # the faded look goes from none to full over half the hair's height
+
+
+def hair_gradient(mask: np.ndarray) -> np.ndarray:
+    """Vertical position inside the hair's bounding box: mask (H, W) -> t (H, W) float32, 0 at the top row.
+
+    Rows above the hair are 0, rows below 1; an empty mask gives zeros.
+    """
+    inside = np.asarray(mask) > 0.5
+    rows = np.nonzero(inside.any(axis=1))[0]
+    height, width = inside.shape
+    if rows.size == 0:
+        return np.zeros((height, width), np.float32)
+    top, bottom = rows[0], rows[-1]
+    t = (np.arange(height) - top) / max(bottom - top, 1)
+    return np.broadcast_to(np.clip(t, 0, 1)[:, None], (height, width)).astype(np.float32)
+
+
+def shine(rgb: np.ndarray, amount: float) -> np.ndarray:
+    """Contrast boost: y + amount * (smoothstep(y) - y), per channel: (..., 3) -> (..., 3)."""
+    y = np.clip(rgb, 0.0, 1.0)
+    return (y + amount * (y * y * (3.0 - 2.0 * y) - y)).astype(np.float32)
+
+
+def blend_weight(gradient: np.ndarray, blend: float) -> np.ndarray:
+    """Faded look: clamp(BLEND_RAMP * (t - blend), 0, 1); blend = -1 colours everything, 1 nothing."""
+    return np.clip(BLEND_RAMP * (np.asarray(gradient, np.float32) - blend), 0.0, 1.0).astype(np.float32)
+
+
+def swatch_target(swatch: np.ndarray, values: dict[str, float]) -> np.ndarray:
+    """Pass 1: the reference swatch (h, w, 3) recoloured by the swatch parameters."""
+    return recolour_swatch(swatch, *(values[name] for name in SWATCH_PARAMS))
+
+
+def fit_hair_match(source: np.ndarray, mask: np.ndarray, recoloured_swatch: np.ndarray) -> HistogramMatch:
+    """The LUTs that move the masked hair's R, G, B and gray histograms onto the recoloured swatch's."""
+    return fit_histogram_match(source, recoloured_swatch, source_mask=mask, n_points=LUT_POINTS)
+
+
+def apply_hair_stage(source: np.ndarray, mask: np.ndarray, gradient: np.ndarray, match: HistogramMatch,
+                     values: dict[str, float]) -> np.ndarray:
+    """Pass 2: LUT, shine, then mix into the source by mask * blend weight * intensity: (H, W, 3)."""
+    if source.shape[:2] != np.shape(mask) or np.shape(mask) != np.shape(gradient):
+        raise VtoError(f"source {source.shape[:2]}, mask {np.shape(mask)} and gradient {np.shape(gradient)} differ in size")
+    recoloured = shine(match.apply(source), values["shine"])
+    alpha = np.clip(mask, 0, 1) * blend_weight(gradient, values["blend"]) * values["intensity"]
+    return (source + alpha[..., None] * (recoloured - source)).astype(np.float32)
+
+
+def render_hair_reference(source: np.ndarray, mask: np.ndarray, swatch: np.ndarray, values: dict[str, float]) -> np.ndarray:
+    """The whole stage in numpy: source (H, W, 3) display values, mask (H, W), swatch (h, w, 3) -> (H, W, 3)."""
+    match = fit_hair_match(source, mask, swatch_target(swatch, values))
+    return apply_hair_stage(source, mask, hair_gradient(mask), match, values)
