@@ -94,10 +94,11 @@ def _stage_image(name: str, pixels: np.ndarray) -> bpy.types.Image:
     """Put (H, W, 3|1) values into a float, Non-Color image `name` (reused, resized as needed)."""
     height, width = pixels.shape[:2]
     image = bpy.data.images.get(name)
+    if image is not None and tuple(image.size) != (width, height):
+        bpy.data.images.remove(image)  # only when the size changes, so not per sample
+        image = None
     if image is None:
         image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True, is_data=True)
-    elif tuple(image.size) != (width, height):
-        image.scale(width, height)
     image.colorspace_settings.name = "Non-Color"
     rgba = np.ones((height, width, 4), np.float32)
     rgba[..., :3] = pixels if pixels.ndim == 3 and pixels.shape[2] == 3 else np.reshape(pixels, (height, width, 1))

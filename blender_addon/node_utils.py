@@ -67,6 +67,7 @@ def get_or_create_group(name: str, tree_type: str, build) -> bpy.types.NodeTree:
         return group
     if group is None or group.bl_idname != tree_type:
         group = bpy.data.node_groups.new(name, tree_type)
+        group.use_fake_user = True  # saved with the .blend even before a material uses it
     group.nodes.clear()
     group.interface.clear()
     build(group)

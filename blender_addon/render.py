@@ -131,4 +131,6 @@ def render_passes(scene: bpy.types.Scene) -> dict[str, np.ndarray]:
 
 def to_display(linear_rgb: np.ndarray) -> np.ndarray:
     """Scene-linear RGB (H, W, 3) -> display sRGB in [0,1], exactly what the Standard view transform shows."""
-    return linear_to_srgb(np.clip(np.nan_to_num(linear_rgb, nan=0.0, posinf=1.0), 0.0, 1.0)).astype(np.float32)
+    if np.isnan(linear_rgb).any():
+        raise VtoError(f"the render holds {int(np.isnan(linear_rgb).sum())} NaN values")
+    return linear_to_srgb(np.clip(linear_rgb, 0.0, 1.0)).astype(np.float32)  # +inf (HDR overflow) shows as white

@@ -16,6 +16,7 @@ COMMANDS = {
     "spec": ("vto_core.cli", "cmd_spec", "print a renderer's (selected) parameter spec as JSON"),
     "sample": ("vto_core.cli", "cmd_sample", "print sampled parameter vectors as JSON lines"),
     "presets": ("vto_core.cli", "cmd_presets", "list a renderer's expert presets"),
+    "render": ("blender_addon.commands", "cmd_render", "render one image with Blender (needs bpy)"),
 }
 
 

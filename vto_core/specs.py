@@ -142,6 +142,18 @@ class RendererSpec:
             full[name] = self.by_name[name].clamp(value)
         return full
 
+    def check_values(self, values: dict[str, float]) -> dict[str, float]:
+        """Strict form of full_values: unknown names, NaN and out-of-range values are errors (hue still wraps)."""
+        for name, value in values.items():
+            param = self.by_name.get(name)
+            if param is None:
+                raise VtoError(f"unknown {self.renderer} parameter '{name}'; known: {', '.join(self.by_name)}")
+            if not isinstance(value, (int, float)) or math.isnan(value):
+                raise VtoError(f"parameter '{name}' must be a number, got {value!r}")
+            if not param.wraps and not param.low <= value <= (param.high if param.bounded else FLOAT_MAX):
+                raise VtoError(f"parameter '{name}' = {value:g} is outside its range [{param.low:g}, {param.high:g}]")
+        return self.full_values(values)
+
     def vector(self, values: dict[str, float]) -> np.ndarray:
         """Raw values of the modelled parameters: dict -> (size,) float64; missing names take defaults."""
         full = self.full_values(values)

@@ -1,0 +1,185 @@
+"""The Blender renderers R(X, g): node groups, sensitivity above render noise, extremes, errors, determinism."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.blender
+bpy = pytest.importorskip("bpy")
+
+from blender_addon.commands import render  # noqa: E402
+from blender_addon.hair import render_hair_source, run_hair_stage  # noqa: E402
+from blender_addon.lipstick import render_lipstick  # noqa: E402
+from blender_addon.node_utils import interface_names  # noqa: E402
+from blender_addon.nodes_hair import color_group, swatch_group  # noqa: E402
+from blender_addon.nodes_lipstick import lipstick_group  # noqa: E402
+from vto_core import cli  # noqa: E402
+from vto_core.errors import VtoError  # noqa: E402
+from vto_core.imageio import read_image  # noqa: E402
+from vto_core.specs import get_spec  # noqa: E402
+
+RES, SAMPLES, BLOCK = 64, 8, 8
+LIPSTICK_BASE = {"opacity": 1.0, "sparkle_density": 0.5}  # makeup on, flakes present, so every input shows
+
+
+def moved_value(param, current):
+    """The range end farther from `current` (4.0 stands for the top of the unbounded gloss)."""
+    high = param.high if param.bounded else 4.0
+    if param.wraps:
+        return (current + 0.5) % 1.0
+    return param.low if abs(current - param.low) > abs(current - high) else high
+
+
+def block_mean(image, k=BLOCK):
+    """(H, W, 3) -> (H/k, W/k, 3) block averages: systematic changes survive, sampling noise shrinks."""
+    h = image.shape[0] // k
+    return image[: h * k, : h * k].reshape(h, k, h, k, 3).mean((1, 3))
+
+
+def effect_over_noise(render_pair):
+    """Change of a parameter over the render-noise floor, measured with two Cycles seeds.
+
+    d_s = R(g'; s) - R(g; s). The effect is |d_0 + d_1| / 2, the noise floor of that change |d_0 - d_1| / 2
+    (pure noise gives a ratio near 1).
+    """
+    d0, d1 = (block_mean(a - b) for a, b in render_pair)
+    return float(np.abs(d0 + d1).mean() / max(np.abs(d0 - d1).mean(), 1e-12))
+
+
+def test_lipstick_group_has_every_spec_input_with_range_and_default():
+    group = lipstick_group()
+    spec = get_spec("lipstick")
+    assert interface_names(group) == ["Lips"] + [p.socket for p in spec.params]
+    sockets = {item.name: item for item in group.interface.items_tree if item.item_type == "SOCKET"}
+    for param in spec.params:
+        socket = sockets[param.socket]
+        assert socket.default_value == pytest.approx(param.default)
+        assert socket.min_value == pytest.approx(param.low)
+        assert socket.max_value == pytest.approx(param.high) if param.bounded else socket.max_value > 1e37
+    assert lipstick_group() is group, "get-or-create must not duplicate the group"
+
+
+def test_hair_groups_split_swatch_and_non_swatch_inputs():
+    spec = get_spec("hair")
+    assert interface_names(swatch_group()) == ["Image"] + [p.socket for p in spec.params if p.group == "swatch"]
+    assert interface_names(color_group()) == ["Image", "Mask", "Gradient"] + [
+        p.socket for p in spec.params if p.group == "non-swatch"]
+
+
+def test_groups_survive_save_and_reload(tmp_path):
+    lipstick_group(), swatch_group(), color_group()
+    path = str(tmp_path / "groups.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
+    with bpy.data.libraries.load(path) as (source, target):
+        target.node_groups = [n for n in source.node_groups if n.startswith("VTO")]
+    loaded = {g.name.rsplit(".", 1)[0]: g for g in target.node_groups}
+    assert interface_names(loaded["VTO Lipstick"]) == interface_names(lipstick_group())
+    assert interface_names(loaded["VTO Hair Color"]) == interface_names(color_group())
+    assert len(loaded["VTO Lipstick"].nodes) == len(lipstick_group().nodes)
+    for group in target.node_groups:
+        bpy.data.node_groups.remove(group)
+
+
+def test_same_inputs_give_identical_pixels():
+    values = {"opacity": 0.9, "red": 120.0, "gloss": 2.0}
+    first = render_lipstick(values, 2, 32, 4, seed=3)
+    again = render_lipstick(values, 2, 32, 4, seed=3)
+    other_seed = render_lipstick(values, 2, 32, 4, seed=4)
+    assert np.array_equal(first, again)
+    assert not np.array_equal(first, other_seed)
+
+
+@pytest.fixture(scope="module")
+def lipstick_base():
+    return [render_lipstick(LIPSTICK_BASE, 1, RES, SAMPLES, seed) for seed in (0, 1)]
+
+
+@pytest.mark.parametrize("param", get_spec("lipstick").params, ids=lambda p: p.name)
+def test_every_lipstick_input_changes_pixels_above_render_noise(param, lipstick_base):
+    values = dict(LIPSTICK_BASE)
+    values[param.name] = moved_value(param, values.get(param.name, param.default))
+    moved = [render_lipstick(values, 1, RES, SAMPLES, seed) for seed in (0, 1)]
+    ratio = effect_over_noise(zip(moved, lipstick_base))
+    assert ratio > 1.0, f"{param.name}: change/noise = {ratio:.2f}"
+
+
+@pytest.mark.parametrize("param", get_spec("lipstick").params, ids=lambda p: p.name)
+def test_lipstick_range_ends_render_finite(param):
+    for value in (param.low, param.sample_high):
+        image = render_lipstick({**LIPSTICK_BASE, param.name: value}, 0, 16, 2)
+        assert np.isfinite(image).all() and 0.0 <= image.min() and image.max() <= 1.0
+
+
+@pytest.fixture(scope="module")
+def hair_sources():
+    return [render_hair_source(1, RES, SAMPLES, seed) for seed in (0, 1)]
+
+
+@pytest.mark.parametrize("param", get_spec("hair").params, ids=lambda p: p.name)
+def test_every_hair_input_changes_pixels_above_render_noise(param, hair_sources):
+    spec = get_spec("hair")
+    base = spec.defaults()
+    moved_values = {**base, param.name: moved_value(param, base[param.name])}
+    pairs = [(run_hair_stage(s, moved_values), run_hair_stage(s, base)) for s in hair_sources]
+    ratio = effect_over_noise(pairs)
+    assert ratio > 1.0, f"{param.name}: change/noise = {ratio:.2f}"
+
+
+@pytest.mark.parametrize("param", get_spec("hair").params, ids=lambda p: p.name)
+def test_hair_range_ends_render_finite(param, hair_sources):
+    for value in (param.low, param.high):
+        image = run_hair_stage(hair_sources[0], {param.name: value})
+        assert np.isfinite(image).all() and 0.0 <= image.min() and image.max() <= 1.0
+
+
+def test_empty_mask_and_constant_source_are_defined(hair_sources):
+    source = hair_sources[0]
+    empty = type(source)(source.rgb, np.zeros_like(source.mask))
+    with pytest.warns(UserWarning, match="empty"):
+        unchanged = run_hair_stage(empty, {"hue": 0.5})
+    assert np.abs(unchanged - source.rgb).max() < 1e-4  # no hair: nothing to recolour
+    flat = type(source)(np.full_like(source.rgb, 0.4), source.mask)
+    image = run_hair_stage(flat, {"saturation": 3.0})
+    assert np.isfinite(image).all()
+
+
+@pytest.mark.parametrize("values, message", [
+    ({"shimmer": 1.0}, "unknown lipstick parameter 'shimmer'"),
+    ({"opacity": 1.5}, r"outside its range \[0, 1\]"),
+    ({"red": float("nan")}, "must be a number"),
+])
+def test_bad_lipstick_values_are_clear_errors(values, message):
+    with pytest.raises(VtoError, match=message):
+        render("lipstick", values, 0, 16, 1)
+
+
+def test_bad_sources_are_clear_errors(tmp_path):
+    with pytest.raises(VtoError, match="cannot read image"):
+        render("hair", {}, str(tmp_path / "missing.png"), 16, 1)
+    with pytest.raises(VtoError, match="seeds of the default lips scene"):
+        render("lipstick", {}, "lips.png", 16, 1)
+
+
+def test_vto_render_writes_what_the_api_renders(tmp_path, capsys):
+    out = tmp_path / "hair.exr"
+    params = json.dumps({"hue": 0.3, "shine": 0.5})
+    assert cli.run(["render", "hair", "--params", params, "--source", "2", "--res", "32", "--samples", "4",
+                    "--out", str(out)]) == 0
+    written, _ = read_image(out)
+    expected = render("hair", json.loads(params), 2, 32, 4)
+    assert np.abs(written - expected).max() < 1e-3  # half-float EXR
+    assert cli.run(["render", "hair", "--params", '{"gamma": 9}', "--out", str(tmp_path / "x.png")]) == 2
+    assert not (tmp_path / "x.png").exists()
+    assert "outside its range" in capsys.readouterr().err
+
+
+def test_spec_ranges_cover_the_paper():
+    """Table 2 and 3 ranges as the node groups expose them."""
+    lipstick = get_spec("lipstick").by_name
+    assert (lipstick["red"].low, lipstick["red"].high) == (0, 255)
+    assert lipstick["gloss"].high == math.inf
+    hair = get_spec("hair").by_name
+    assert (hair["gamma"].low, hair["gamma"].high) == (0.5, 3.0)
+    assert (hair["blend"].low, hair["blend"].high) == (-1.0, 1.0)
