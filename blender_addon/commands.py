@@ -41,3 +41,139 @@ def cmd_render(argv: list[str]) -> int:
     write_image(args.out, image)
     print(json.dumps({"out": args.out, "renderer": args.renderer, "source": args.source, "params": values}))
     return 0
+
+
+DEMO_LIPSTICKS = ("Bare Nude", "Classic Red", "Berry Stain", "Midnight Vinyl", "Champagne Glitter")
+DEMO_HAIR = ("Natural Brown", "Copper Red", "Platinum", "Ombre Copper", "Teal Fashion")
+
+
+def cmd_demo(argv: list[str]) -> int:
+    """vto demo --out DIR: render expert presets on the embedded default sources, plus a contact sheet."""
+    import numpy as np
+
+    from vto_core.presets import load_presets
+
+    parser = argparse.ArgumentParser(prog="vto demo", description="render presets on the default lips and hair scenes")
+    parser.add_argument("--out", default="out/demo")
+    parser.add_argument("--res", type=int, default=128)
+    parser.add_argument("--samples", type=int, default=32)
+    args = parser.parse_args(argv)
+    rows = []
+    for renderer, names in (("lipstick", DEMO_LIPSTICKS), ("hair", DEMO_HAIR)):
+        presets = load_presets(renderer)
+        row = [render(renderer, {"opacity": 0.0} if renderer == "lipstick" else {"intensity": 0.0}, 0, args.res, args.samples)]
+        for name in names:
+            image = render(renderer, presets[name], 0, args.res, args.samples)
+            path = f"{args.out}/{renderer}_{name.lower().replace(' ', '_')}.png"
+            write_image(_ensure_parent(path), image)
+            row.append(image)
+        rows.append(np.concatenate(row, axis=1))
+    sheet = write_image(_ensure_parent(f"{args.out}/sheet.png"), np.concatenate(rows, axis=0))
+    print(json.dumps({"sheet": sheet, "columns": ["source (no product)", *DEMO_LIPSTICKS],
+                      "hair_columns": ["source", *DEMO_HAIR]}))
+    return 0
+
+
+def _ensure_parent(path: str) -> str:
+    import os
+
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    return path
+
+
+def _launcher() -> list[str]:
+    """How to start another `vto` like this one: the Blender binary (`blender -b FILE -c vto`) or this Python."""
+    import os
+    import sys
+
+    import bpy
+
+    binary = bpy.app.binary_path
+    if binary and os.path.basename(binary).lower().startswith("blender"):
+        return [binary, "-b", *([bpy.data.filepath] if bpy.data.filepath else []), "-c", "vto"]
+    return [sys.executable, "-m", "vto_core.cli"]
+
+
+def _user_scene() -> str | None:
+    """The open .blend's active scene if a material of it uses the lipstick group (else the default scene)."""
+    import bpy
+
+    from .lipstick import makeup_nodes
+
+    if not bpy.data.filepath:
+        return None
+    scene = bpy.context.scene
+    return scene.name if scene is not None and makeup_nodes(scene) else None
+
+
+def cmd_dataset(argv: list[str]) -> int:
+    """vto dataset RENDERER --out DIR --n N --seed S [--shard i/K] [--res] [--samples] [--params] [--sensitivity] [--workers W]."""
+    import bpy
+
+    from vto_core.dataset import parse_shard, shard_from_env
+
+    from .dataset import DatasetJob, job_indices, prepare_output, run_in_process, run_workers, worker_indices
+
+    parser = argparse.ArgumentParser(prog="vto dataset", description="render a training dataset (paper 5.2, 6.1)")
+    parser.add_argument("renderer", choices=["lipstick", "hair"])
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--n", type=int, required=True, help="samples in the whole dataset (all shards)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--shard", default=None, help="i/K; default from SLURM_ARRAY_TASK_ID/COUNT or JOB_COMPLETION_INDEX")
+    parser.add_argument("--res", type=int, default=64)
+    parser.add_argument("--samples", type=int, default=16)
+    parser.add_argument("--params", default=None, help="comma-separated parameters to model (default: all)")
+    parser.add_argument("--sensitivity", action="store_true", help="also render R(X, g'_j) for each modelled j")
+    parser.add_argument("--uniform-ratio", type=float, default=0.5, help="share of uniform draws vs the preset fit")
+    parser.add_argument("--source-folder", default=None, help="hair: photos with <name>_mask beside them")
+    parser.add_argument("--blend", default=None, help="lipstick: a .blend whose active scene uses the VTO Lipstick group")
+    parser.add_argument("--workers", type=int, default=1, help="Blender processes on this machine")
+    parser.add_argument("--restart-every", type=int, default=500, help="samples per worker process before a restart")
+    parser.add_argument("--worker", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--limit", type=int, default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+    if args.workers < 1:
+        raise VtoError(f"--workers must be at least 1, got {args.workers}")
+    if args.blend:
+        import os
+
+        if not os.path.isfile(args.blend):
+            raise VtoError(f"no .blend at {args.blend}")
+        bpy.ops.wm.open_mainfile(filepath=args.blend)
+    scene = _user_scene() if args.renderer == "lipstick" else None
+    if args.blend and args.renderer == "lipstick" and scene is None:
+        raise VtoError(f"{args.blend}: no material of its active scene uses the 'VTO Lipstick' node group")
+    shard = parse_shard(args.shard) if args.shard else shard_from_env()
+    job = DatasetJob(args.renderer, args.out, args.n, args.seed, args.res, args.samples,
+                     args.params.split(",") if args.params else None, args.sensitivity, args.uniform_ratio,
+                     args.source_folder, scene)
+    indices = job_indices(job, shard)
+    if args.worker is not None:
+        from vto_core.dataset import parse_shard as parse_worker
+
+        made = run_in_process(job, worker_indices(indices, parse_worker(args.worker)), args.limit, quiet=True)
+        return 0 if made >= 0 else 1
+    prepare_output(job)
+    if args.workers == 1:
+        made = run_in_process(job, indices, args.limit, args.quiet)
+    else:
+        forwarded = [a for a in argv if a not in ("--quiet",)]
+        forwarded = _drop_option(_drop_option(forwarded, "--workers"), "--shard") + ["--shard", f"{shard[0]}/{shard[1]}"]
+        made = run_workers(job, indices, args.workers, _launcher() + ["dataset", *forwarded], args.restart_every)
+    print(json.dumps({"out": args.out, "shard": f"{shard[0]}/{shard[1]}", "indices": [indices.start, indices.stop],
+                      "made": made}))
+    return 0
+
+
+def _drop_option(argv: list[str], name: str) -> list[str]:
+    """argv without `name VALUE` (or `name=VALUE`)."""
+    out, skip = [], False
+    for arg in argv:
+        if skip:
+            skip = False
+        elif arg == name:
+            skip = True
+        elif not arg.startswith(name + "="):
+            out.append(arg)
+    return out

@@ -17,6 +17,8 @@ COMMANDS = {
     "sample": ("vto_core.cli", "cmd_sample", "print sampled parameter vectors as JSON lines"),
     "presets": ("vto_core.cli", "cmd_presets", "list a renderer's expert presets"),
     "render": ("blender_addon.commands", "cmd_render", "render one image with Blender (needs bpy)"),
+    "dataset": ("blender_addon.commands", "cmd_dataset", "render a training dataset, sharded and resumable (needs bpy)"),
+    "demo": ("blender_addon.commands", "cmd_demo", "render expert presets on the embedded default scenes"),
 }
 
 
@@ -101,3 +103,7 @@ def run(argv: list[str]) -> int:
 def main() -> None:
     """Console-script entry point."""
     sys.exit(run(sys.argv[1:]))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1 @@
+"""Benchmarks: each script measures, prints a table and writes it to benchmarks/results/."""

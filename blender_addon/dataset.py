@@ -1,0 +1,242 @@
+"""Dataset generation (paper 5.2, 6.1): sample g, render X, R(X, g) and R(X, g'_j), one atomic folder per sample."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+import vto_core
+from vto_core.dataset import (FORMAT_VERSION, SampleWriter, finished_indices, remove_stale_temporaries,
+                              shard_range, write_manifest)
+from vto_core.errors import VtoError
+from vto_core.presets import load_presets, preset_matrix
+from vto_core.sampling import ParamSampler
+from vto_core.specs import RendererSpec, get_spec
+
+_SOURCE_STREAM = 7
+
+
+@dataclass
+class DatasetJob:
+    """Everything that defines a dataset (shard, workers and restarts only say who renders what)."""
+
+    renderer: str
+    out: str
+    n: int
+    seed: int = 0
+    res: int = 64
+    samples: int = 16
+    params: list[str] | None = None
+    sensitivity: bool = False
+    uniform_ratio: float = 0.5
+    source_folder: str | None = None  # hair: photos with masks instead of the default scene
+    scene: str | None = None  # lipstick: render this scene of the open .blend instead of the default
+    spec: RendererSpec = field(init=False)
+
+    def __post_init__(self):
+        if self.n < 1:
+            raise VtoError(f"--n must be at least 1, got {self.n}")
+        if self.seed < 0:
+            raise VtoError(f"--seed must be >= 0, got {self.seed}")
+        self.spec = get_spec(self.renderer, self.params)
+
+    def manifest(self) -> dict:
+        """What manifest.json records: identical for every shard and rerun of the same dataset."""
+        settings = {k: v for k, v in asdict(self).items() if k not in ("out", "spec")}
+        settings["params"] = list(self.spec.modelled)
+        return {
+            "format_version": FORMAT_VERSION,
+            **settings,
+            "spec": self.spec.to_dict(),
+            "images": "16-bit PNG, display sRGB (Standard view transform)",
+            "blender_version": bpy.app.version_string,
+            "vto_version": vto_core.__version__,
+        }
+
+
+def source_id(seed: int, index: int) -> int:
+    """The source X of sample `index`: a seed of the default scene (or a photo number)."""
+    return int(np.random.default_rng([seed, index, _SOURCE_STREAM]).integers(2**31 - 1))
+
+
+class SampleRenderer:
+    """Renders samples of one job; scenes are built once and changed in place."""
+
+    def __init__(self, job: DatasetJob):
+        self.job = job
+        spec = job.spec
+        self.sampler = ParamSampler(spec, preset_matrix(spec, load_presets(job.renderer)), job.uniform_ratio, job.seed)
+        self.photos = None
+        self.user_scene = None
+        if job.renderer == "hair" and job.source_folder:
+            from .hair import photo_sources
+
+            self.photos = photo_sources(job.source_folder)
+        if job.renderer == "lipstick" and job.scene:
+            self.user_scene = bpy.data.scenes.get(job.scene)
+            if self.user_scene is None:
+                raise VtoError(f"the open .blend has no scene '{job.scene}'")
+
+    def render(self, index: int) -> int:
+        """Render and write sample `index`; returns the number of renders R(X, .) it took."""
+        job, spec = self.job, self.job.spec
+        unit = self.sampler.sample_unit(index)
+        variants = [unit] + ([self.sampler.resample_one_unit(index, j) for j in range(spec.size)] if job.sensitivity else [])
+        values = [spec.values(spec.denormalise(u)) for u in variants]
+        source = source_id(job.seed, index)
+        cycles_seed = index  # one seed for every render of a sample: sensitivity differences share its noise
+        if job.renderer == "lipstick":
+            source_image, images, extra = self._lipstick(source, cycles_seed, values)
+        else:
+            source_image, images, extra = self._hair(source, cycles_seed, values)
+        writer = SampleWriter(Path(job.out), index)
+        try:
+            writer.image("source", source_image)
+            writer.image("render", images[0])
+            for j, image in enumerate(images[1:]):
+                writer.image(f"sens_{j:02d}", image)
+            for name, pixels in extra.items():
+                writer.image(name, pixels)
+            record = {"index": index, "source": source, "cycles_seed": cycles_seed,
+                      "unit": unit.tolist(), "raw": spec.denormalise(unit).tolist(), "values": values[0]}
+            if job.sensitivity:
+                record["sensitivity_unit"] = [u.tolist() for u in variants[1:]]
+            writer.params(record)
+            writer.commit()
+        except BaseException:
+            writer.abort()
+            raise
+        return len(images) + (job.renderer == "lipstick")
+
+    def _lipstick(self, source: int, cycles_seed: int, values: list[dict]):
+        from .lipstick import render_lipstick
+
+        job = self.job
+        scene = self.user_scene
+
+        def draw(v):
+            return render_lipstick(v, source, job.res, job.samples, cycles_seed, scene=scene)
+
+        bare = draw({**values[0], "opacity": 0.0})
+        return bare, [draw(v) for v in values], {}
+
+    def _hair(self, source: int, cycles_seed: int, values: list[dict]):
+        from .hair import load_photo_source, render_hair_source, run_hair_stage
+
+        job = self.job
+        if self.photos is not None:
+            hair_source = load_photo_source(self.photos[source % len(self.photos)], job.res)
+        else:
+            hair_source = render_hair_source(source, job.res, job.samples, cycles_seed)
+        return hair_source.rgb, [run_hair_stage(hair_source, v) for v in values], {"mask": hair_source.mask}
+
+
+def prepare_output(job: DatasetJob) -> None:
+    """Create DIR, check or write its manifest, drop half-written samples of killed runs."""
+    out = Path(job.out)
+    try:
+        (out / "samples").mkdir(parents=True, exist_ok=True)
+        probe = out / ".vto-write-probe"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        raise VtoError(f"cannot write to {out}: {exc.strerror}") from None
+    write_manifest(out, job.manifest())
+    remove_stale_temporaries(out)
+
+
+class Progress:
+    """A one-line progress bar with renders/s and ETA, on stderr."""
+
+    def __init__(self, total: int, renders_per_sample: int, quiet: bool = False):
+        self.total, self.per_sample, self.quiet = total, renders_per_sample, quiet
+        self.start = time.perf_counter()
+        self.last_draw = 0.0
+
+    def update(self, done: int, fresh: int, force: bool = False) -> None:
+        """Redraw (at most 4 times a second): `done` of total finished, `fresh` of them made in this run."""
+        now = time.perf_counter()
+        if self.quiet or (not force and now - self.last_draw < 0.25):
+            return
+        self.last_draw = now
+        elapsed = max(now - self.start, 1e-9)
+        rate = fresh * self.per_sample / elapsed
+        left = (self.total - done) * self.per_sample / rate if rate > 0 else float("nan")
+        width = 30
+        filled = int(width * done / max(self.total, 1))
+        eta = f"{left / 60:.1f} min" if left == left else "?"
+        sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{self.total} samples  "
+                         f"{rate:.1f} renders/s  ETA {eta}   ")
+        if force:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def renders_per_sample(job: DatasetJob) -> int:
+    """R(X, .) renders each sample costs (lipstick also renders X)."""
+    return 1 + (job.spec.size if job.sensitivity else 0) + (job.renderer == "lipstick")
+
+
+def run_in_process(job: DatasetJob, indices, limit: int | None = None, quiet: bool = False) -> int:
+    """Render the unfinished `indices` here, at most `limit` of them; returns how many were made."""
+    todo = [i for i in indices if i not in finished_indices(Path(job.out))]
+    if limit is not None:
+        todo = todo[:limit]
+    renderer = SampleRenderer(job)
+    progress = Progress(len(todo), renders_per_sample(job), quiet)
+    for made, index in enumerate(todo, start=1):
+        renderer.render(index)
+        progress.update(made, made)
+    progress.update(len(todo), len(todo), force=bool(todo))
+    return len(todo)
+
+
+def run_workers(job: DatasetJob, indices: range, workers: int, worker_command: list[str], restart_every: int) -> int:
+    """Render `indices` with `workers` processes of `worker_command`, restarting each after `restart_every` samples."""
+    out = Path(job.out)
+    wanted = set(indices)
+    initially_done = len(wanted & finished_indices(out))
+    progress = Progress(len(wanted), renders_per_sample(job))
+    running: dict[int, subprocess.Popen] = {}
+    try:
+        while True:
+            done = len(wanted & finished_indices(out))
+            for w in range(workers):
+                process = running.get(w)
+                if process is not None and process.poll() is not None:
+                    if process.returncode != 0:
+                        raise VtoError(f"dataset worker {w}/{workers} failed with exit status {process.returncode}")
+                    running.pop(w)
+            mine = {w: [i for i in indices if (i - indices.start) % workers == w and i not in finished_indices(out)]
+                    for w in range(workers)} if len(running) < workers else {}
+            for w, left in mine.items():
+                if left and w not in running:
+                    running[w] = subprocess.Popen(worker_command + ["--worker", f"{w}/{workers}", "--limit",
+                                                                    str(restart_every), "--quiet"])
+            progress.update(done, done - initially_done)
+            if not running:
+                break
+            time.sleep(0.2)
+    finally:
+        for process in running.values():
+            process.kill()
+    done = len(wanted & finished_indices(out))
+    progress.update(done, done - initially_done, force=True)
+    return done - initially_done
+
+
+def worker_indices(indices: range, worker: tuple[int, int]) -> list[int]:
+    """The indices worker (w, W) renders: every W-th of the shard, starting at w."""
+    w, count = worker
+    return [i for i in indices if (i - indices.start) % count == w]
+
+
+def job_indices(job: DatasetJob, shard: tuple[int, int]) -> range:
+    """This shard's sample indices."""
+    return shard_range(job.n, shard)

@@ -1,0 +1,144 @@
+"""Dataset generation: determinism, kill-and-resume, shards, sensitivity renders, bad arguments."""
+
+import hashlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.blender
+pytest.importorskip("bpy")
+
+from blender_addon.commands import cmd_dataset  # noqa: E402
+from blender_addon.lipstick import render_lipstick  # noqa: E402
+from vto_core import cli  # noqa: E402
+from vto_core.dataset import DatasetReader, shard_from_env, shard_range  # noqa: E402
+from vto_core.errors import VtoError  # noqa: E402
+from vto_core.specs import get_spec  # noqa: E402
+
+TINY = ["--res", "16", "--samples", "2", "--params", "red,gloss", "--seed", "5", "--quiet"]
+
+
+def tree_hashes(root: Path) -> dict[str, str]:
+    """Relative path -> sha256 of every file under root."""
+    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def make(out, n, *extra):
+    assert cmd_dataset(["lipstick", "--out", str(out), "--n", str(n), *TINY, *extra]) == 0
+
+
+def test_two_runs_give_identical_files_and_the_loader_reads_them(tmp_path):
+    make(tmp_path / "a", 3, "--sensitivity")
+    make(tmp_path / "b", 3, "--sensitivity")
+    assert tree_hashes(tmp_path / "a") == tree_hashes(tmp_path / "b")
+    reader = DatasetReader(tmp_path / "a")
+    assert len(reader) == 3 and reader.spec.modelled == ("red", "gloss")
+    sample = reader[1]
+    assert sample.source.shape == sample.render.shape == (16, 16, 3)
+    assert sample.sensitivity.shape == (2, 16, 16, 3) and sample.sensitivity_unit.shape == (2, 2)
+    assert np.allclose(get_spec("lipstick", "red,gloss").normalise(sample.raw), sample.unit, atol=1e-6)
+    assert sample.record["values"]["sparkle_density"] == 0.0, "unmodelled parameters stay at their defaults"
+    manifest = json.loads((tmp_path / "a" / "manifest.json").read_text())
+    assert manifest["blender_version"].startswith("4.5") and manifest["params"] == ["red", "gloss"]
+
+
+def test_sensitivity_renders_differ_only_through_parameter_j(tmp_path):
+    make(tmp_path / "d", 1, "--sensitivity")
+    sample = DatasetReader(tmp_path / "d")[0]
+    spec = get_spec("lipstick", "red,gloss")
+    for j in range(spec.size):
+        moved = np.nonzero(~np.isclose(sample.sensitivity_unit[j], sample.unit))[0].tolist()
+        assert moved == [j]
+        # the file is exactly R(X, g'_j): re-render g'_j from the recorded vector
+        values = spec.values(spec.denormalise(sample.sensitivity_unit[j]))
+        rerender = render_lipstick(values, sample.record["source"], 16, 2, sample.record["cycles_seed"])
+        assert np.abs(rerender - sample.sensitivity[j]).max() < 1.0 / 65535 + 1e-6
+        assert np.abs(sample.sensitivity[j] - sample.render).max() > 1e-3
+
+
+def test_shards_equal_one_run(tmp_path):
+    make(tmp_path / "whole", 5)
+    for i in range(3):
+        make(tmp_path / "sharded", 5, "--shard", f"{i}/3")
+    assert tree_hashes(tmp_path / "whole") == tree_hashes(tmp_path / "sharded")
+
+
+def test_rerun_renders_only_missing_samples(tmp_path):
+    make(tmp_path / "r", 3)
+    samples = tmp_path / "r" / "samples"
+    kept = (samples / "0000000" / "render.png").stat().st_mtime_ns
+    removed = tree_hashes(samples / "0000001")
+    import shutil
+
+    shutil.rmtree(samples / "0000001")
+    make(tmp_path / "r", 3)
+    assert (samples / "0000000" / "render.png").stat().st_mtime_ns == kept
+    assert tree_hashes(samples / "0000001") == removed
+
+
+def test_kill_and_resume_yields_the_uninterrupted_files(tmp_path):
+    n = 8
+    make(tmp_path / "clean", n)
+    out = tmp_path / "killed"
+    command = [sys.executable, "-m", "vto_core.cli", "dataset", "lipstick", "--out", str(out), "--n", str(n), *TINY]
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while time.time() < deadline and len(list((out / "samples").glob("0*"))) < 2:
+        time.sleep(0.05)
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait()
+    done_before = len(list((out / "samples").glob("0*")))
+    assert 2 <= done_before < n, "the kill must land mid-run for this test to mean anything"
+    make(out, n)
+    assert tree_hashes(tmp_path / "clean") == tree_hashes(out)
+
+
+def test_two_workers_make_the_same_files(tmp_path):
+    make(tmp_path / "one", 4)
+    make(tmp_path / "two", 4, "--workers", "2")
+    assert tree_hashes(tmp_path / "one") == tree_hashes(tmp_path / "two")
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--n", "0"], "--n must be at least 1"),
+    (["--n", "4", "--shard", "3/2"], "need 0 <= i < K"),
+    (["--n", "4", "--params", "red,shimmer"], "unknown lipstick parameter"),
+    (["--n", "4", "--workers", "0"], "--workers must be at least 1"),
+])
+def test_bad_arguments_are_clear_errors_and_write_nothing(tmp_path, capsys, argv, message):
+    out = tmp_path / "bad"
+    assert cli.run(["dataset", "lipstick", "--out", str(out), *argv, "--res", "16", "--samples", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0]
+    assert not out.exists()
+
+
+def test_unwritable_output_is_a_clear_error(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    assert cli.run(["dataset", "lipstick", "--out", str(blocker / "ds"), "--n", "2", "--res", "16"]) == 2
+    assert "cannot write to" in capsys.readouterr().err
+
+
+def test_changed_settings_in_an_existing_folder_are_refused(tmp_path):
+    make(tmp_path / "m", 2)
+    with pytest.raises(VtoError, match="other settings"):
+        cmd_dataset(["lipstick", "--out", str(tmp_path / "m"), "--n", "2", *TINY[:-1], "--res", "24"])
+
+
+def test_scheduler_environment_selects_the_shard():
+    assert shard_from_env({"SLURM_ARRAY_TASK_ID": "2", "SLURM_ARRAY_TASK_COUNT": "4"}) == (2, 4)
+    assert shard_from_env({"SLURM_ARRAY_TASK_ID": "3", "SLURM_ARRAY_TASK_COUNT": "3", "SLURM_ARRAY_TASK_MIN": "1"}) == (2, 3)
+    assert shard_from_env({"JOB_COMPLETION_INDEX": "1", "VTO_SHARD_COUNT": "2"}) == (1, 2)
+    assert shard_from_env({}) == (0, 1)
+    with pytest.raises(VtoError, match="VTO_SHARD_COUNT"):
+        shard_from_env({"JOB_COMPLETION_INDEX": "1"})
+    assert [list(shard_range(10, (i, 3))) for i in range(3)] == [[0, 1, 2], [3, 4, 5], [6, 7, 8, 9]]

@@ -1,0 +1,193 @@
+"""Dataset format (bpy-free): manifest, per-sample folders written atomically, shards, and a reader.
+
+Layout of a dataset folder DIR:
+
+    DIR/manifest.json               renderer, spec, res, samples, seed, n, sensitivity, versions (no shard, no time)
+    DIR/samples/0000042/            one folder per finished sample, renamed into place when complete
+        source.png                  X: the source, 16-bit PNG, display sRGB
+        render.png                  R(X, g)
+        sens_00.png ... sens_MM.png R(X, g'_j) for each modelled j (with --sensitivity)
+        mask.png                    hair only: the hair mask X came with
+        params.json                 g raw and normalised, all parameters (unmodelled at defaults), g'_j,
+                                    source id, Cycles seed
+
+Sample i is a pure function of (seed, i), so shards are index ranges and a rerun skips finished folders.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import VtoError
+from .specs import RendererSpec
+
+FORMAT_VERSION = 1
+SAMPLES_DIR = "samples"
+TMP_PREFIX = ".tmp-"
+
+
+def sample_name(index: int) -> str:
+    """Folder name of sample `index`."""
+    return f"{index:07d}"
+
+
+def parse_shard(text: str) -> tuple[int, int]:
+    """'i/K' -> (i, K) with 0 <= i < K."""
+    try:
+        index, count = (int(part) for part in text.split("/"))
+    except ValueError:
+        raise VtoError(f"--shard must look like i/K (e.g. 0/4), got '{text}'") from None
+    if count < 1 or not 0 <= index < count:
+        raise VtoError(f"--shard {text}: need 0 <= i < K")
+    return index, count
+
+
+def shard_from_env(environ=os.environ) -> tuple[int, int]:
+    """The shard a scheduler assigned: SLURM array or Kubernetes indexed job; (0, 1) when neither is set."""
+    if "SLURM_ARRAY_TASK_ID" in environ:
+        index, count = environ["SLURM_ARRAY_TASK_ID"], environ.get("SLURM_ARRAY_TASK_COUNT")
+        offset = int(environ.get("SLURM_ARRAY_TASK_MIN", "0"))
+        name = "SLURM_ARRAY_TASK_COUNT"
+    elif "JOB_COMPLETION_INDEX" in environ:
+        index, count, offset = environ["JOB_COMPLETION_INDEX"], environ.get("VTO_SHARD_COUNT"), 0
+        name = "VTO_SHARD_COUNT"
+    else:
+        return 0, 1
+    if count is None:
+        raise VtoError(f"a scheduler index is set but {name} is not: cannot tell the number of shards")
+    return parse_shard(f"{int(index) - offset}/{count}")
+
+
+def shard_range(n: int, shard: tuple[int, int]) -> range:
+    """Contiguous indices of shard (i, K) out of n samples; the K ranges tile range(n)."""
+    index, count = shard
+    return range(n * index // count, n * (index + 1) // count)
+
+
+def write_manifest(root: Path, manifest: dict) -> None:
+    """Write DIR/manifest.json atomically, or check that an existing one holds the same settings."""
+    root = Path(root)
+    path = root / "manifest.json"
+    if path.exists():
+        existing = read_manifest(root)
+        if existing != manifest:
+            changed = sorted(k for k in set(existing) | set(manifest) if existing.get(k) != manifest.get(k))
+            raise VtoError(f"{root} holds a dataset made with other settings ({', '.join(changed)}); use a new --out")
+        return
+    _write_atomic(path, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+
+
+def read_manifest(root: Path) -> dict:
+    """DIR/manifest.json as a dict."""
+    path = Path(root) / "manifest.json"
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise VtoError(f"{root} is not a dataset: no manifest.json") from None
+    except json.JSONDecodeError as exc:
+        raise VtoError(f"{path} is corrupt: {exc}") from None
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(f"{TMP_PREFIX}{os.getpid()}-{path.name}")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def finished_indices(root: Path) -> set[int]:
+    """Indices whose sample folder is in place."""
+    folder = Path(root) / SAMPLES_DIR
+    if not folder.is_dir():
+        return set()
+    return {int(entry.name) for entry in os.scandir(folder) if entry.name.isdigit()}
+
+
+def remove_stale_temporaries(root: Path) -> int:
+    """Delete half-written sample folders left by a killed run; returns how many."""
+    folder = Path(root) / SAMPLES_DIR
+    stale = [p for p in folder.glob(TMP_PREFIX + "*")] if folder.is_dir() else []
+    for path in stale:
+        shutil.rmtree(path, ignore_errors=True)
+    return len(stale)
+
+
+class SampleWriter:
+    """Collects one sample's files in a temporary folder and renames it into place on commit."""
+
+    def __init__(self, root: Path, index: int):
+        self.final = Path(root) / SAMPLES_DIR / sample_name(index)
+        self.tmp = self.final.with_name(f"{TMP_PREFIX}{sample_name(index)}-{os.getpid()}")
+        shutil.rmtree(self.tmp, ignore_errors=True)
+        self.tmp.mkdir(parents=True)
+
+    def image(self, name: str, pixels: np.ndarray) -> None:
+        """Write a display-sRGB image (H, W, 3) or mask (H, W) as a 16-bit PNG."""
+        from .imageio import write_image
+
+        write_image(self.tmp / f"{name}.png", pixels, bits=16)
+
+    def params(self, record: dict) -> None:
+        """Write params.json (sorted keys, so reruns give identical bytes)."""
+        (self.tmp / "params.json").write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+
+    def commit(self) -> None:
+        """Rename the folder into place (atomic on one filesystem)."""
+        os.replace(self.tmp, self.final)
+
+    def abort(self) -> None:
+        """Drop what was written."""
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+
+@dataclass
+class Sample:
+    """One sample read back: images (H, W, 3) float32, vectors in the spec's order."""
+
+    index: int
+    source: np.ndarray
+    render: np.ndarray
+    unit: np.ndarray  # (m,) normalised g
+    raw: np.ndarray  # (m,) raw g
+    sensitivity: np.ndarray | None  # (m, H, W, 3) renders R(X, g'_j)
+    sensitivity_unit: np.ndarray | None  # (m, m) normalised g'_j, row j
+    mask: np.ndarray | None
+    record: dict
+
+
+class DatasetReader:
+    """Read a dataset without bpy: len(), reader[i] -> Sample for the finished samples, in index order."""
+
+    def __init__(self, root: str | os.PathLike):
+        from .specs import RendererSpec
+
+        self.root = Path(root)
+        self.manifest = read_manifest(self.root)
+        if self.manifest.get("format_version") != FORMAT_VERSION:
+            raise VtoError(f"{root}: dataset format {self.manifest.get('format_version')}, this reader reads {FORMAT_VERSION}")
+        self.spec: RendererSpec = RendererSpec.from_dict(self.manifest["spec"])
+        self.indices = sorted(finished_indices(self.root))
+
+    def __len__(self) -> int:
+        return len(self.indices)
+
+    def __getitem__(self, position: int) -> Sample:
+        from .imageio import read_image
+
+        index = self.indices[position]
+        folder = self.root / SAMPLES_DIR / sample_name(index)
+        record = json.loads((folder / "params.json").read_text())
+        sensitivity = sensitivity_unit = mask = None
+        if self.manifest["sensitivity"]:
+            sensitivity = np.stack([read_image(folder / f"sens_{j:02d}.png")[0] for j in range(self.spec.size)])
+            sensitivity_unit = np.array(record["sensitivity_unit"], np.float32)
+        if (folder / "mask.png").exists():
+            mask = read_image(folder / "mask.png")[0][..., 0]
+        return Sample(index, read_image(folder / "source.png")[0], read_image(folder / "render.png")[0],
+                      np.array(record["unit"], np.float32), np.array(record["raw"]), sensitivity, sensitivity_unit,
+                      mask, record)
