@@ -1,11 +1,12 @@
 """Run every benchmark in turn (`make bench`)."""
 
-from benchmarks import bench_render
+from benchmarks import bench_dataset, bench_render
 
 
 def main() -> None:
     """Each benchmark writes its own table under benchmarks/results/."""
     bench_render.main()
+    bench_dataset.main()
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from vto_core.cli import ArgumentParser
 from vto_core.errors import VtoError
 from vto_core.imageio import write_image
 from vto_core.params_io import parse_params
@@ -27,7 +28,7 @@ def render(renderer: str, values: dict[str, float], source, res: int = 64, sampl
 
 def cmd_render(argv: list[str]) -> int:
     """vto render RENDERER --params P --source S [--res 64] [--samples 16] [--seed 0] --out FILE."""
-    parser = argparse.ArgumentParser(prog="vto render", description="render one image with a renderer R(X, g)")
+    parser = ArgumentParser(prog="vto render", description="render one image with a renderer R(X, g)")
     parser.add_argument("renderer", choices=["lipstick", "hair"])
     parser.add_argument("--params", default=None, help="JSON object, a JSON file, or preset:NAME")
     parser.add_argument("--source", default="0", help="source seed, or (hair) a photo with <name>_mask beside it")
@@ -53,7 +54,7 @@ def cmd_demo(argv: list[str]) -> int:
 
     from vto_core.presets import load_presets
 
-    parser = argparse.ArgumentParser(prog="vto demo", description="render presets on the default lips and hair scenes")
+    parser = ArgumentParser(prog="vto demo", description="render presets on the default lips and hair scenes")
     parser.add_argument("--out", default="out/demo")
     parser.add_argument("--res", type=int, default=128)
     parser.add_argument("--samples", type=int, default=32)
@@ -114,7 +115,7 @@ def cmd_dataset(argv: list[str]) -> int:
 
     from .dataset import DatasetJob, job_indices, prepare_output, run_in_process, run_workers, worker_indices
 
-    parser = argparse.ArgumentParser(prog="vto dataset", description="render a training dataset (paper 5.2, 6.1)")
+    parser = ArgumentParser(prog="vto dataset", description="render a training dataset (paper 5.2, 6.1)")
     parser.add_argument("renderer", choices=["lipstick", "hair"])
     parser.add_argument("--out", required=True)
     parser.add_argument("--n", type=int, required=True, help="samples in the whole dataset (all shards)")

@@ -22,6 +22,13 @@ COMMANDS = {
 }
 
 
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse whose usage errors are VtoErrors, so every bad input ends as one line and exit status 2."""
+
+    def error(self, message):
+        raise VtoError(message)
+
+
 def add_spec_args(parser: argparse.ArgumentParser) -> None:
     """The renderer and --params arguments every spec-using command shares."""
     parser.add_argument("renderer", choices=["lipstick", "hair"])
@@ -32,7 +39,7 @@ def cmd_spec(argv: list[str]) -> int:
     """vto spec RENDERER [--params a,b]."""
     from .specs import get_spec
 
-    parser = argparse.ArgumentParser(prog="vto spec", description=COMMANDS["spec"][2])
+    parser = ArgumentParser(prog="vto spec", description=COMMANDS["spec"][2])
     add_spec_args(parser)
     args = parser.parse_args(argv)
     spec = get_spec(args.renderer, args.params)
@@ -48,7 +55,7 @@ def cmd_sample(argv: list[str]) -> int:
     from .sampling import ParamSampler
     from .specs import get_spec
 
-    parser = argparse.ArgumentParser(prog="vto sample", description=COMMANDS["sample"][2])
+    parser = ArgumentParser(prog="vto sample", description=COMMANDS["sample"][2])
     add_spec_args(parser)
     parser.add_argument("--n", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
@@ -69,7 +76,7 @@ def cmd_presets(argv: list[str]) -> int:
     """vto presets RENDERER."""
     from .presets import load_presets
 
-    parser = argparse.ArgumentParser(prog="vto presets", description=COMMANDS["presets"][2])
+    parser = ArgumentParser(prog="vto presets", description=COMMANDS["presets"][2])
     parser.add_argument("renderer", choices=["lipstick", "hair"])
     args = parser.parse_args(argv)
     for name, values in load_presets(args.renderer).items():
@@ -95,6 +102,8 @@ def run(argv: list[str]) -> int:
     except VtoError as exc:
         print(f"vto {name}: error: {exc}", file=sys.stderr)
         return 2
+    except SystemExit as exc:  # --help
+        return int(exc.code or 0)
     except KeyboardInterrupt:
         print(f"vto {name}: interrupted", file=sys.stderr)
         return 130
