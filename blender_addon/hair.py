@@ -11,7 +11,7 @@ import numpy as np
 
 from vto_core.errors import VtoError
 from vto_core.hair import LUT_POINTS, fit_hair_match, hair_gradient
-from vto_core.imageio import read_image
+from vto_core.imageio import read_image, resize
 from vto_core.specs import get_spec
 
 from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, set_lut, swatch_group
@@ -71,17 +71,8 @@ def load_photo_source(photo: str | os.PathLike, res: int | None = None) -> HairS
     if mask.shape != rgb.shape[:2]:
         raise VtoError(f"mask of {photo} is {mask.shape[1]}x{mask.shape[0]}, the photo {rgb.shape[1]}x{rgb.shape[0]}")
     if res is not None and rgb.shape[:2] != (res, res):
-        rgb, mask = _resize(rgb, res), _resize(mask[..., None], res)[..., 0]
+        rgb, mask = resize(rgb, res, res), resize(mask, res, res)
     return HairSource(np.clip(rgb, 0, 1).astype(np.float32), (mask > 0.5).astype(np.float32))
-
-
-def _resize(image: np.ndarray, res: int) -> np.ndarray:
-    """Area-average resize through OpenImageIO: (H, W, C) -> (res, res, C)."""
-    import OpenImageIO as oiio
-
-    source = oiio.ImageBuf(np.ascontiguousarray(image, dtype=np.float32))
-    resized = oiio.ImageBufAlgo.resize(source, roi=oiio.ROI(0, res, 0, res, 0, 1, 0, image.shape[2]))
-    return resized.get_pixels(oiio.FLOAT).reshape(res, res, image.shape[2])
 
 
 def load_swatch(path: str | os.PathLike | None = None) -> np.ndarray:

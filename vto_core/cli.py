@@ -18,6 +18,8 @@ COMMANDS = {
     "presets": ("vto_core.cli", "cmd_presets", "list a renderer's expert presets"),
     "render": ("blender_addon.commands", "cmd_render", "render one image with Blender (needs bpy)"),
     "dataset": ("blender_addon.commands", "cmd_dataset", "render a training dataset, sharded and resumable (needs bpy)"),
+    "train": ("training.cli", "cmd_train", "train the imitator or the encoder (needs torch)"),
+    "export": ("training.cli", "cmd_export", "export an encoder run to ONNX"),
     "demo": ("blender_addon.commands", "cmd_demo", "render expert presets on the embedded default scenes"),
 }
 

@@ -181,3 +181,17 @@ def write_image(path, rgb, alpha=None, bits=None):
             os.remove(temp_path)
         raise
     return path
+
+
+def resize(image, height, width):
+    """Area-filtered resize through OpenImageIO: (H, W, C) float -> (height, width, C) float32."""
+    import OpenImageIO as oiio
+
+    image = np.ascontiguousarray(image, dtype=np.float32)
+    if image.ndim == 2:
+        return resize(image[..., None], height, width)[..., 0]
+    source = oiio.ImageBuf(image)
+    resized = oiio.ImageBufAlgo.resize(source, roi=oiio.ROI(0, width, 0, height, 0, 1, 0, image.shape[2]))
+    if resized.has_error:
+        raise VtoError(f"resize failed: {_one_line(resized.geterror())}")
+    return resized.get_pixels(oiio.FLOAT).reshape(height, width, image.shape[2])

@@ -1,0 +1,144 @@
+"""Training runs on a small real dataset: losses fall, the encoder beats the mean, resume, NaN stop, export."""
+
+import json
+
+import numpy as np
+import pytest
+
+pytestmark = [pytest.mark.torch, pytest.mark.blender]
+torch = pytest.importorskip("torch")
+pytest.importorskip("bpy")
+
+from training.config import EncoderConfig, ImitatorConfig, resolve_config  # noqa: E402
+from training.export import export_encoder  # noqa: E402
+from training.run import RunFolder  # noqa: E402
+from training.train_encoder import train_encoder  # noqa: E402
+from training.train_imitator import train_imitator  # noqa: E402
+from vto_core import cli  # noqa: E402
+from vto_core.dataset import DatasetReader  # noqa: E402
+from vto_core.errors import VtoError  # noqa: E402
+from vto_core.inference import EncoderSession  # noqa: E402
+from vto_core.specs import get_spec  # noqa: E402
+
+TINY_IMITATOR = ["width=8", "n_down=1", "n_res=1", "critic_width=8", "critic_layers=2", "batch_size=8",
+                 "perceptual=ssim_l1", "log_every=5", "checkpoint_every=10", "lr=0.002"]
+TINY_ENCODER = ["width=8", "n_layers=2", "batch_size=16", "perceptual=ssim_l1", "log_every=10", "lr=0.003",
+                "val_fraction=0.2"]
+
+
+def imitator_config(*extra):
+    return resolve_config(ImitatorConfig, None, TINY_IMITATOR + list(extra))
+
+
+@pytest.fixture(scope="module")
+def imitator_run(lipstick_dataset, tmp_path_factory):
+    out = tmp_path_factory.mktemp("runs") / "imitator"
+    train_imitator(str(lipstick_dataset), str(out), imitator_config("steps=60"))
+    return out
+
+
+def test_imitator_loss_falls_on_real_renders(imitator_run):
+    log = RunFolder(imitator_run).read_log()
+    first, last = log[0], log[-1]
+    assert last["step"] == 60
+    assert {"imitation", "sensitivity", "adversarial", "critic", "val_l1"} <= set(last)
+    assert np.mean([row["imitation"] for row in log[-3:]]) < first["imitation"]
+    assert last["val_l1"] < first["val_l1"]
+    assert (imitator_run / "losses.png").stat().st_size > 1000
+    saved = json.loads((imitator_run / "config.json").read_text())
+    assert saved["lambda_sens"] == 1000.0 and saved["spec"]["modelled"] == ["opacity", "red", "green", "blue"]
+
+
+def test_imitation_only_ablation_needs_no_sensitivity_term(lipstick_dataset, tmp_path):
+    run = train_imitator(str(lipstick_dataset), str(tmp_path / "ablation"),
+                         imitator_config("steps=5", "use_sensitivity=false", "use_gan=false"))
+    last = run.read_log()[-1]
+    assert "sensitivity" not in last and "adversarial" not in last and last["total"] == pytest.approx(100 * last["imitation"])
+
+
+def test_a_run_resumes_from_its_last_checkpoint(lipstick_dataset, tmp_path):
+    out = tmp_path / "resume"
+    train_imitator(str(lipstick_dataset), str(out), imitator_config("steps=10"))
+    first_weights = RunFolder(out).load_checkpoint()["model"]
+    train_imitator(str(lipstick_dataset), str(out), imitator_config("steps=20"))
+    checkpoint = RunFolder(out).load_checkpoint()
+    assert checkpoint["step"] == 20
+    assert [row["step"] for row in RunFolder(out).read_log()] == [5, 10, 15, 20]
+    assert any(not torch.equal(first_weights[k], checkpoint["model"][k]) for k in first_weights)
+    with pytest.raises(VtoError, match="other settings"):
+        train_imitator(str(lipstick_dataset), str(out), imitator_config("steps=30", "width=16"))
+
+
+def test_nan_loss_stops_with_a_clear_message(lipstick_dataset, tmp_path, monkeypatch):
+    import training.train_imitator as module
+
+    class NanDistance(torch.nn.Module):
+        kind = "nan"
+
+        def __init__(self, *args):
+            super().__init__()
+
+        def forward(self, x, y):
+            return (x - y).sum() * float("nan")
+
+    monkeypatch.setattr(module, "PerceptualDistance", NanDistance)
+    with pytest.raises(VtoError, match="training stopped at step 1: loss imitation=nan"):
+        train_imitator(str(lipstick_dataset), str(tmp_path / "nan"), imitator_config("steps=5"))
+
+
+def test_encoder_beats_predicting_the_mean(colour_dataset, tmp_path):
+    config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=1500", "loss=graphics", "pool_size=1"])
+    run = train_encoder(str(colour_dataset), None, str(tmp_path / "encoder"), config)
+    reader = DatasetReader(colour_dataset)
+    held_out = 32  # val_fraction 0.2 of 160
+    train_g = np.stack([reader[i].unit for i in range(len(reader) - held_out)])
+    held_out_g = np.stack([reader[i].unit for i in range(len(reader) - held_out, len(reader))])
+    baseline = float(((held_out_g - train_g.mean(0)) ** 2).mean())
+    learned = run.read_log()[-1]["val_param_mse"]
+    assert learned < 0.7 * baseline, f"encoder {learned:.4f} vs mean baseline {baseline:.4f}"
+
+
+def test_encoder_with_rendering_loss_trains_through_the_imitator(lipstick_dataset, imitator_run, tmp_path):
+    config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=10"])
+    last = train_encoder(str(lipstick_dataset), str(imitator_run), str(tmp_path / "both"), config).read_log()[-1]
+    assert last["total"] == pytest.approx(last["graphics"] + 20 * last["rendering"], rel=1e-5)
+    with pytest.raises(VtoError, match="needs --imitator"):
+        train_encoder(str(lipstick_dataset), None, str(tmp_path / "none"), config)
+
+
+def test_export_matches_torch_and_refuses_another_spec(lipstick_dataset, tmp_path):
+    config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=5", "loss=graphics"])
+    run = train_encoder(str(lipstick_dataset), None, str(tmp_path / "encoder"), config)
+    result = export_encoder(str(run.path), str(tmp_path / "encoder.onnx"))
+    assert result["max_abs_diff"] <= 1e-4
+    import onnx
+
+    model = onnx.load(str(tmp_path / "encoder.onnx"))
+    onnx.checker.check_model(model)
+    metadata = {p.key: p.value for p in model.metadata_props}
+    assert metadata["vto.renderer"] == "lipstick" and metadata["vto.input_size"] == "16x16"
+    spec = get_spec("lipstick", "opacity,red,green,blue")
+    session = EncoderSession(tmp_path / "encoder.onnx", expected_spec=spec)
+    sample = DatasetReader(lipstick_dataset)[0]
+    values = session.predict(sample.render)[0]
+    assert set(values) == set(get_spec("lipstick").by_name) and all(np.isfinite(list(values.values())))
+    with pytest.raises(VtoError, match=r"estimates lipstick \[opacity, red, green, blue\], not lipstick \[red\]"):
+        EncoderSession(tmp_path / "encoder.onnx", expected_spec=get_spec("lipstick", "red"))
+    with pytest.raises(VtoError, match="not a VTO encoder|cannot load"):
+        (tmp_path / "junk.onnx").write_bytes(b"not a model")
+        EncoderSession(tmp_path / "junk.onnx")
+
+
+def test_train_cli_smoke_and_errors(lipstick_dataset, tmp_path, capsys):
+    out = tmp_path / "cli"
+    argv = ["train", "imitator", "--data", str(lipstick_dataset), "--out", str(out), "--set", "steps=2"]
+    assert cli.run(argv + sum((["--set", s] for s in TINY_IMITATOR), [])) == 0
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["step"] == 2
+    assert cli.run(["train", "imitator", "--data", str(lipstick_dataset), "--out", str(tmp_path / "x"),
+                    "--set", "bogus=1"]) == 2
+    assert "unknown setting 'bogus'" in capsys.readouterr().err
+    if not torch.cuda.is_available():
+        assert cli.run(argv + ["--device", "cuda"]) == 2
+        assert "no CUDA device" in capsys.readouterr().err
+    assert cli.run(["export", "--encoder", str(out), "--out", str(tmp_path / "e.onnx")]) == 2
+    assert "export takes an encoder run" in capsys.readouterr().err

@@ -1,0 +1,59 @@
+"""`vto train imitator|encoder` and `vto export`: thin argument layers over the training functions."""
+
+from __future__ import annotations
+
+import json
+
+from vto_core.cli import ArgumentParser
+from vto_core.errors import VtoError
+
+from .config import EncoderConfig, ImitatorConfig, resolve_config
+
+
+def _check_device(device: str) -> None:
+    import torch
+
+    if device.startswith("cuda") and not torch.cuda.is_available():
+        raise VtoError(f"--device {device}: torch sees no CUDA device on this machine")
+
+
+def cmd_train(argv: list[str]) -> int:
+    """vto train imitator --data DIR --out RUN | vto train encoder --data DIR --imitator RUN --out RUN."""
+    parser = ArgumentParser(prog="vto train", description="train the imitator or the encoder (paper 5, 6.2)")
+    parser.add_argument("kind", choices=["imitator", "encoder"])
+    parser.add_argument("--data", required=True, help="a `vto dataset` folder")
+    parser.add_argument("--out", required=True, help="run folder (resumed if it holds a checkpoint)")
+    parser.add_argument("--imitator", default=None, help="encoder: the imitator run for the rendering loss")
+    parser.add_argument("--config", default=None, help="JSON file of settings")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override one setting")
+    parser.add_argument("--device", default=None, help="cpu (default) or cuda")
+    args = parser.parse_args(argv)
+    overrides = args.set + ([f"device={args.device}"] if args.device else [])
+    if args.kind == "imitator":
+        from .train_imitator import train_imitator
+
+        config = resolve_config(ImitatorConfig, args.config, overrides)
+        _check_device(config.device)
+        run = train_imitator(args.data, args.out, config)
+    else:
+        from .train_encoder import train_encoder
+
+        config = resolve_config(EncoderConfig, args.config, overrides)
+        _check_device(config.device)
+        run = train_encoder(args.data, args.imitator, args.out, config)
+    last = run.read_log()[-1]
+    print(json.dumps({"run": str(run.path), "kind": args.kind, **last}))
+    return 0
+
+
+def cmd_export(argv: list[str]) -> int:
+    """vto export --encoder RUN --out encoder.onnx."""
+    from .export import export_encoder
+
+    parser = ArgumentParser(prog="vto export", description="export an encoder run to ONNX (checked against torch)")
+    parser.add_argument("--encoder", required=True, help="encoder run folder")
+    parser.add_argument("--out", required=True, help="the .onnx file to write")
+    parser.add_argument("--opset", type=int, default=18)
+    args = parser.parse_args(argv)
+    print(json.dumps(export_encoder(args.encoder, args.out, args.opset)))
+    return 0

@@ -1,0 +1,218 @@
+"""The imitator, critic and inverse-graphics encoder networks (Kips et al. 2022, section 6)."""
+
+import numbers
+
+import torch
+from torch import nn
+
+from vto_core.errors import VtoError
+
+
+def _check_count(owner, name, value, minimum):
+    """Return value as a plain int, raising VtoError unless it is an integer (not bool) >= minimum."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise VtoError(f"{owner}: {name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _check_images(owner, images, image_channels):
+    """Raise VtoError unless images is (B, image_channels, H, W)."""
+    if images.ndim != 4 or images.shape[1] != image_channels:
+        raise VtoError(
+            f"{owner}: expected images of shape (B, {image_channels}, H, W), got {tuple(images.shape)}"
+        )
+
+
+def _check_halvings(owner, images, n_halvings):
+    """Raise VtoError if n_halvings stride-2 convolutions would shrink images below 1 px."""
+    height, width = images.shape[-2:]
+    smallest = 2**n_halvings
+    if height < smallest or width < smallest:
+        raise VtoError(
+            f"{owner}: {height}x{width} images shrink below 1 px after {n_halvings} halvings;"
+            f" they need at least {smallest}x{smallest}"
+        )
+
+
+def _down_channels(width, level):
+    """Channels of the level-th stride-2 stage: width * 2**level, capped at 8 * width."""
+    return min(width * 2**level, 8 * width)
+
+
+class _ResidualBlock(nn.Module):
+    """x + [pad, conv 4x4, IN, ReLU, pad, conv 4x4, IN](x), same size and channels."""
+
+    def __init__(self, channels):
+        super().__init__()
+        # A 4x4 kernel is even, so 'same' size needs asymmetric padding: 1 before, 2 after.
+        self.body = nn.Sequential(
+            nn.ZeroPad2d((1, 2, 1, 2)),
+            nn.Conv2d(channels, channels, 4, stride=1, padding=0, bias=False),
+            nn.InstanceNorm2d(channels, affine=True),
+            nn.ReLU(),
+            nn.ZeroPad2d((1, 2, 1, 2)),
+            nn.Conv2d(channels, channels, 4, stride=1, padding=0, bias=False),
+            nn.InstanceNorm2d(channels, affine=True),
+        )
+
+    def forward(self, x):
+        """x: (B, channels, H, W) -> (B, channels, H, W)."""
+        return x + self.body(x)
+
+
+class Imitator(nn.Module):
+    """StarGAN-like generator I(x, g) = x + difference(x, g), a differentiable renderer surrogate."""
+
+    def __init__(self, n_params, width=64, n_down=2, n_res=6, image_channels=3):
+        super().__init__()
+        n_params = _check_count("Imitator", "n_params", n_params, 1)
+        width = _check_count("Imitator", "width", width, 1)
+        n_down = _check_count("Imitator", "n_down", n_down, 0)
+        n_res = _check_count("Imitator", "n_res", n_res, 0)
+        image_channels = _check_count("Imitator", "image_channels", image_channels, 1)
+        self.model_args = dict(
+            n_params=n_params, width=width, n_down=n_down, n_res=n_res, image_channels=image_channels
+        )
+        self.n_params = n_params
+        self.n_down = n_down
+        self.image_channels = image_channels
+
+        # Convolutions followed by InstanceNorm carry no bias: the norm's shift replaces it.
+        layers = [
+            nn.Conv2d(image_channels + n_params, width, 7, stride=1, padding=3, bias=False),
+            nn.InstanceNorm2d(width, affine=True),
+            nn.ReLU(),
+        ]
+        channels = width
+        for _ in range(n_down):
+            layers += [
+                nn.Conv2d(channels, channels * 2, 4, stride=2, padding=1, bias=False),
+                nn.InstanceNorm2d(channels * 2, affine=True),
+                nn.ReLU(),
+            ]
+            channels *= 2
+        layers += [_ResidualBlock(channels) for _ in range(n_res)]
+        for _ in range(n_down):
+            layers += [
+                nn.ConvTranspose2d(channels, channels // 2, 4, stride=2, padding=1, bias=False),
+                nn.InstanceNorm2d(channels // 2, affine=True),
+                nn.ReLU(),
+            ]
+            channels //= 2
+        self.body = nn.Sequential(*layers)
+        self.to_difference = nn.Conv2d(channels, image_channels, 7, stride=1, padding=3)
+
+    def _check_inputs(self, x, g):
+        """Raise VtoError unless x is (B, C, H, W) with H, W divisible by 2**n_down and g is (B, m)."""
+        _check_images("Imitator", x, self.image_channels)
+        if g.ndim != 2 or g.shape != (x.shape[0], self.n_params):
+            raise VtoError(
+                f"Imitator: expected g of shape ({x.shape[0]}, {self.n_params}), got {tuple(g.shape)}"
+            )
+        height, width = x.shape[-2:]
+        factor = 2**self.n_down
+        if height % factor or width % factor:
+            raise VtoError(
+                f"Imitator: image size {height}x{width} is not divisible by 2**n_down = {factor}"
+            )
+        # InstanceNorm cannot normalise a single pixel.
+        if height * width // factor**2 < 2:
+            raise VtoError(
+                f"Imitator: image size {height}x{width} leaves a 1-pixel bottleneck after"
+                f" {self.n_down} halvings; use larger images"
+            )
+
+    def difference(self, x, g):
+        """x: (B, C, H, W), g: (B, m) -> the difference map (B, C, H, W) in [-1, 1]."""
+        self._check_inputs(x, g)
+        g_planes = g[:, :, None, None].to(x.dtype).expand(-1, -1, x.shape[2], x.shape[3])
+        features = self.body(torch.cat([x, g_planes], dim=1))
+        return torch.tanh(self.to_difference(features))
+
+    def forward(self, x, g):
+        """x: (B, C, H, W), g: (B, m) normalised parameters -> rendered estimate x + difference."""
+        return x + self.difference(x, g)
+
+
+class Critic(nn.Module):
+    """WGAN-GP patch critic without normalisation layers: img (B, C, H, W) -> score (B,)."""
+
+    def __init__(self, width=64, n_layers=4, image_channels=3):
+        super().__init__()
+        width = _check_count("Critic", "width", width, 1)
+        n_layers = _check_count("Critic", "n_layers", n_layers, 1)
+        image_channels = _check_count("Critic", "image_channels", image_channels, 1)
+        self.model_args = dict(width=width, n_layers=n_layers, image_channels=image_channels)
+        self.n_layers = n_layers
+        self.image_channels = image_channels
+
+        layers = []
+        channels = image_channels
+        for level in range(n_layers):
+            out_channels = _down_channels(width, level)
+            layers += [nn.Conv2d(channels, out_channels, 4, stride=2, padding=1), nn.LeakyReLU(0.01)]
+            channels = out_channels
+        layers.append(nn.Conv2d(channels, 1, 3, stride=1, padding=1))
+        self.body = nn.Sequential(*layers)
+
+    def forward(self, img):
+        """img: (B, C, H, W) -> (B,) mean of the patch score map."""
+        _check_images("Critic", img, self.image_channels)
+        _check_halvings("Critic", img, self.n_layers)
+        return self.body(img).mean(dim=(1, 2, 3))
+
+
+class Encoder(nn.Module):
+    """Inverse-graphics encoder E: img (B, C, H, W) in [0,1] -> normalised parameters (B, m)."""
+
+    def __init__(self, n_params, width=32, n_layers=4, image_channels=3, pool_size=4):
+        super().__init__()
+        n_params = _check_count("Encoder", "n_params", n_params, 1)
+        width = _check_count("Encoder", "width", width, 1)
+        n_layers = _check_count("Encoder", "n_layers", n_layers, 1)
+        image_channels = _check_count("Encoder", "image_channels", image_channels, 1)
+        pool_size = _check_count("Encoder", "pool_size", pool_size, 1)
+        self.model_args = dict(
+            n_params=n_params,
+            width=width,
+            n_layers=n_layers,
+            image_channels=image_channels,
+            pool_size=pool_size,
+        )
+        self.n_layers = n_layers
+        self.image_channels = image_channels
+
+        layers = []
+        channels = image_channels
+        for level in range(n_layers):
+            out_channels = _down_channels(width, level)
+            layers += [nn.Conv2d(channels, out_channels, 4, stride=2, padding=1), nn.ReLU()]
+            channels = out_channels
+        # Plain ops only, so the network exports to ONNX; the pool's output size should divide
+        # the final feature map (image size / 2**n_layers) for the export to be a plain average.
+        layers += [
+            nn.AdaptiveAvgPool2d(pool_size),
+            nn.Flatten(),
+            nn.Linear(channels * pool_size * pool_size, n_params),
+        ]
+        self.body = nn.Sequential(*layers)
+
+    def forward(self, img):
+        """img: (B, C, H, W) in [0,1] -> (B, n_params) linear outputs."""
+        _check_images("Encoder", img, self.image_channels)
+        _check_halvings("Encoder", img, self.n_layers)
+        return self.body(img)
+
+
+_NETWORK_CLASSES = {"imitator": Imitator, "critic": Critic, "encoder": Encoder}
+
+
+def build(kind, model_args):
+    """Rebuild a network of kind 'imitator', 'critic' or 'encoder' from its model_args dict."""
+    network_class = _NETWORK_CLASSES.get(kind)
+    if network_class is None:
+        raise VtoError(f"build: unknown network kind {kind!r}, expected one of {sorted(_NETWORK_CLASSES)}")
+    try:
+        return network_class(**dict(model_args))
+    except TypeError as error:
+        raise VtoError(f"build: bad model_args for {kind!r}: {error}") from None

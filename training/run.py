@@ -1,0 +1,113 @@
+"""A run folder: resolved config, checkpoints (resume), the loss log (JSONL) and its plot."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import torch
+
+from vto_core.errors import VtoError
+
+CHECKPOINT = "checkpoint.pt"
+CONFIG = "config.json"
+LOSSES = "losses.jsonl"
+PLOT = "losses.png"
+
+
+class RunFolder:
+    """Owns RUN/: config.json, checkpoint.pt, losses.jsonl, losses.png."""
+
+    def __init__(self, path: str | os.PathLike):
+        self.path = Path(path)
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise VtoError(f"cannot create run folder {self.path}: {exc.strerror}") from None
+
+    def save_config(self, config: dict) -> None:
+        """Write the resolved config (refuses to resume a run made with another one)."""
+        path = self.path / CONFIG
+        if path.exists():
+            saved = json.loads(path.read_text())
+            changed = sorted(k for k in set(saved) | set(config) if k != "steps" and saved.get(k) != config.get(k))
+            if changed:
+                raise VtoError(f"{self.path} was trained with other settings ({', '.join(changed)}); use a new --out")
+        _atomic_write_text(path, json.dumps(config, indent=1, sort_keys=True) + "\n")
+
+    def save_checkpoint(self, state: dict) -> None:
+        """Atomically write checkpoint.pt."""
+        tmp = self.path / (CHECKPOINT + ".tmp")
+        torch.save(state, tmp)
+        os.replace(tmp, self.path / CHECKPOINT)
+
+    def load_checkpoint(self, required: bool = False) -> dict | None:
+        """The last checkpoint, or None (VtoError if `required`)."""
+        path = self.path / CHECKPOINT
+        if not path.exists():
+            if required:
+                raise VtoError(f"{self.path} has no {CHECKPOINT}: train it first")
+            return None
+        try:
+            return torch.load(path, map_location="cpu", weights_only=False)
+        except Exception as exc:  # torch raises many kinds for a damaged file
+            raise VtoError(f"cannot read {path}: {exc}") from None
+
+    def log(self, step: int, losses: dict[str, float]) -> None:
+        """Append one line of losses."""
+        with open(self.path / LOSSES, "a") as handle:
+            handle.write(json.dumps({"step": step, **losses}) + "\n")
+
+    def truncate_log(self, step: int) -> None:
+        """Drop log lines after `step` (a resumed run rewrites them)."""
+        path = self.path / LOSSES
+        if path.exists():
+            kept = [line for line in path.read_text().splitlines() if line and json.loads(line)["step"] <= step]
+            _atomic_write_text(path, "".join(line + "\n" for line in kept))
+
+    def read_log(self) -> list[dict]:
+        """All logged lines."""
+        path = self.path / LOSSES
+        return [json.loads(line) for line in path.read_text().splitlines() if line] if path.exists() else []
+
+    def plot(self, title: str) -> Path:
+        """Plot every logged loss against the step to losses.png (log scale where all values are positive)."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        rows = self.read_log()
+        names = sorted({k for row in rows for k in row if k != "step"})
+        figure, axis = plt.subplots(figsize=(7, 4), dpi=100)
+        for name in names:
+            points = [(row["step"], row[name]) for row in rows if name in row]
+            axis.plot(*zip(*points), label=name)
+        if rows and all(row[n] > 0 for row in rows for n in names if n in row):
+            axis.set_yscale("log")
+        axis.set_xlabel("step")
+        axis.set_title(title)
+        axis.legend(fontsize=7)
+        figure.tight_layout()
+        path = self.path / PLOT
+        figure.savefig(path)
+        plt.close(figure)
+        return path
+
+
+def check_finite(step: int, losses: dict[str, torch.Tensor | float]) -> dict[str, float]:
+    """Loss tensors -> floats; stops the run with a clear message on NaN or inf."""
+    values = {name: float(value) for name, value in losses.items()}
+    bad = {name: value for name, value in values.items() if not math.isfinite(value)}
+    if bad:
+        raise VtoError(f"training stopped at step {step}: loss {', '.join(f'{k}={v}' for k, v in bad.items())} "
+                       "(lower lr, check the data); the last good checkpoint is kept")
+    return values
+
+
+def _atomic_write_text(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)

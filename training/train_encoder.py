@@ -1,0 +1,122 @@
+"""Train the inverse-graphics encoder E (paper 5.3): L_graphics + l3 * L_rendering through the frozen imitator."""
+
+from __future__ import annotations
+
+import time
+
+import torch
+
+from vto_core.dataset import DatasetReader
+from vto_core.errors import VtoError
+from vto_core.specs import RendererSpec
+
+from .config import EncoderConfig, config_dict
+from .data import RenderDataset, endless, make_loader, split
+from .losses import PerceptualDistance, graphics_loss
+from .networks import Encoder, build
+from .run import RunFolder, check_finite
+
+
+def load_frozen_imitator(run_path: str, spec: RendererSpec, device: str) -> torch.nn.Module:
+    """The imitator of a finished run, frozen; refused if it models another spec than the dataset."""
+    checkpoint = RunFolder(run_path).load_checkpoint(required=True)
+    if checkpoint.get("kind") != "imitator":
+        raise VtoError(f"{run_path} is a {checkpoint.get('kind')} run, not an imitator run")
+    if not RendererSpec.from_dict(checkpoint["spec"]).same_as(spec):
+        raise VtoError(f"the imitator in {run_path} was trained for another parameter spec than this dataset")
+    imitator = build("imitator", checkpoint["model_args"]).to(device)
+    imitator.load_state_dict(checkpoint["model"])
+    imitator.eval()
+    for parameter in imitator.parameters():
+        parameter.requires_grad_(False)
+    return imitator
+
+
+@torch.no_grad()
+def parameter_error(encoder: Encoder, loader, device: str) -> float:
+    """Held-out mean squared error of the normalised parameters."""
+    encoder.eval()
+    total, count = 0.0, 0
+    for batch in loader:
+        g = batch["g"].to(device)
+        total += float(((encoder(batch["render"].to(device)) - g) ** 2).mean()) * len(g)
+        count += len(g)
+    encoder.train()
+    return total / count
+
+
+def train_encoder(data: str, imitator_run: str | None, out: str, config: EncoderConfig) -> RunFolder:
+    """Train (or resume) an encoder run in `out`; the imitator is needed unless loss == 'graphics'."""
+    # 1. Run folder, resolved config, data.
+    run = RunFolder(out)
+    reader = DatasetReader(data)
+    run.save_config({**config_dict(config), "kind": "encoder", "data": str(data), "imitator": imitator_run,
+                     "spec": reader.spec.to_dict()})
+    torch.manual_seed(config.seed)
+    device = config.device
+    train_positions, val_positions = split(reader, config.val_fraction)
+    train_set = RenderDataset(reader, train_positions)
+    batches = endless(make_loader(train_set, config.batch_size, config.seed, config.num_workers))
+    val_loader = make_loader(RenderDataset(reader, val_positions), config.batch_size, 0, shuffle=False) if val_positions else None
+
+    # 2. Encoder, frozen imitator (the rendering loss), optimiser; resume.
+    use_rendering = config.loss in ("rendering", "both")
+    use_graphics = config.loss in ("graphics", "both")
+    if use_rendering and not imitator_run:
+        raise VtoError("the rendering loss needs --imitator RUN (or --set loss=graphics)")
+    imitator = load_frozen_imitator(imitator_run, reader.spec, device) if use_rendering else None
+    perceptual = PerceptualDistance(config.perceptual, config.vgg_weights or None).to(device) if use_rendering else None
+    encoder = Encoder(reader.spec.size, config.width, config.n_layers, pool_size=config.pool_size).to(device)
+    optimiser = torch.optim.Adam(encoder.parameters(), lr=config.lr, betas=(config.beta1, config.beta2))
+    step = 0
+    checkpoint = run.load_checkpoint()
+    if checkpoint is not None:
+        encoder.load_state_dict(checkpoint["model"])
+        optimiser.load_state_dict(checkpoint["optimizer"])
+        step = checkpoint["step"]
+        run.truncate_log(step)
+    image_size = list(train_set[0]["render"].shape[1:])
+
+    def save() -> None:
+        run.save_checkpoint({
+            "kind": "encoder", "step": step, "model": encoder.state_dict(), "model_args": encoder.model_args,
+            "optimizer": optimiser.state_dict(), "config": config_dict(config), "spec": reader.spec.to_dict(),
+            "image_size": image_size, "imitator": imitator_run,
+        })
+
+    # 3. Loop: g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g).
+    started, samples_seen = time.perf_counter(), 0
+    while step < config.steps:
+        batch = next(batches)
+        source, render, g = (batch[k].to(device) for k in ("source", "render", "g"))
+        g_hat = encoder(render)
+        losses, total = {}, torch.zeros((), device=device)
+        if use_graphics:
+            loss_graphics = graphics_loss(g, g_hat)
+            total = total + loss_graphics
+            losses["graphics"] = loss_graphics.detach()
+        if use_rendering:
+            loss_rendering = perceptual(imitator(source, g_hat), render)
+            total = total + config.lambda_rendering * loss_rendering
+            losses["rendering"] = loss_rendering.detach()
+        losses["total"] = total.detach()
+        values = check_finite(step + 1, losses)
+        optimiser.zero_grad(set_to_none=True)
+        total.backward()
+        optimiser.step()
+        step += 1
+        samples_seen += len(g)
+
+        # 4. Log, evaluate, checkpoint.
+        if step % config.log_every == 0 or step == config.steps:
+            values["samples_per_s"] = samples_seen / (time.perf_counter() - started)
+            if val_loader is not None:
+                values["val_param_mse"] = parameter_error(encoder, val_loader, device)
+            run.log(step, values)
+        if step % config.checkpoint_every == 0 or step == config.steps:
+            save()
+
+    # 5. Final checkpoint and loss plot.
+    save()
+    run.plot(f"encoder ({reader.spec.renderer}, loss: {config.loss})")
+    return run

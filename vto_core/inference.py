@@ -1,0 +1,74 @@
+"""ONNX encoder inference with onnxruntime: session made once, CPU provider, few threads, no spinning."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .errors import VtoError
+from .specs import RendererSpec
+
+METADATA_PREFIX = "vto."
+INPUT_NAME = "image"
+OUTPUT_NAME = "params_unit"
+
+
+class EncoderSession:
+    """An exported encoder: image(s) -> parameters in raw units; refuses a model made for another spec."""
+
+    def __init__(self, path: str | Path, expected_spec: RendererSpec | None = None, threads: int = 2):
+        import onnxruntime as ort
+
+        path = Path(path)
+        if not path.is_file():
+            raise VtoError(f"no encoder model at {path}")
+        options = ort.SessionOptions()
+        options.intra_op_num_threads = threads
+        options.inter_op_num_threads = 1
+        # Inside Blender a spinning thread pool would steal the UI's cores between calls.
+        options.add_session_config_entry("session.intra_op.allow_spinning", "0")
+        options.add_session_config_entry("session.inter_op.allow_spinning", "0")
+        try:
+            self.session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+        except Exception as exc:  # onnxruntime raises its own exception types for bad files
+            raise VtoError(f"cannot load {path} with onnxruntime: {str(exc).splitlines()[0]}") from None
+        metadata = self.session.get_modelmeta().custom_metadata_map
+        if f"{METADATA_PREFIX}spec" not in metadata:
+            raise VtoError(f"{path} is not a VTO encoder (no {METADATA_PREFIX}spec metadata)")
+        self.metadata = metadata
+        self.spec = RendererSpec.from_dict(json.loads(metadata[f"{METADATA_PREFIX}spec"]))
+        if expected_spec is not None and not self.spec.same_as(expected_spec):
+            raise VtoError(
+                f"{path.name} estimates {self.spec.renderer} [{', '.join(self.spec.modelled)}], not "
+                f"{expected_spec.renderer} [{', '.join(expected_spec.modelled)}]")
+        height, width = (int(v) for v in metadata[f"{METADATA_PREFIX}input_size"].split("x"))
+        self.input_size = (height, width)
+
+    def predict_unit_nchw(self, images: np.ndarray) -> np.ndarray:
+        """images (N, 3, H, W) float32 in [0,1] at the model's size -> (N, m) normalised parameters (unclipped)."""
+        images = np.ascontiguousarray(images, dtype=np.float32)
+        if images.ndim != 4 or images.shape[1] != 3 or tuple(images.shape[2:]) != self.input_size:
+            raise VtoError(f"encoder input must be (N, 3, {self.input_size[0]}, {self.input_size[1]}), got {images.shape}")
+        if not np.isfinite(images).all():
+            raise VtoError("encoder input holds NaN or inf pixels")
+        return self.session.run([OUTPUT_NAME], {INPUT_NAME: images})[0]
+
+    def prepare(self, image: np.ndarray) -> np.ndarray:
+        """A display-sRGB image (H, W, 3), any size, HDR allowed -> (3, h, w) at the model's size, clipped to [0,1]."""
+        from .imageio import resize
+
+        image = np.asarray(image, dtype=np.float32)
+        if image.ndim != 3 or image.shape[2] != 3:
+            raise VtoError(f"expected an (H, W, 3) image, got shape {image.shape}")
+        if tuple(image.shape[:2]) != self.input_size:
+            image = resize(image, *self.input_size)
+        return np.clip(np.nan_to_num(image, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0).transpose(2, 0, 1)
+
+    def predict(self, images: list[np.ndarray] | np.ndarray) -> list[dict[str, float]]:
+        """Image(s) (H, W, 3) -> one dict of raw parameter values each (all parameters; unmodelled at defaults)."""
+        if isinstance(images, np.ndarray) and images.ndim == 3:
+            images = [images]
+        unit = self.predict_unit_nchw(np.stack([self.prepare(image) for image in images]))
+        return [self.spec.values(self.spec.denormalise(np.clip(row, 0.0, 1.0))) for row in unit]
