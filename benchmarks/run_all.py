@@ -1,12 +1,13 @@
 """Run every benchmark in turn (`make bench`)."""
 
-from benchmarks import bench_dataset, bench_render
+from benchmarks import bench_dataset, bench_render, bench_training
 
 
 def main() -> None:
     """Each benchmark writes its own table under benchmarks/results/."""
     bench_render.main()
     bench_dataset.main()
+    bench_training.main()
 
 
 if __name__ == "__main__":

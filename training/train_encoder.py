@@ -32,6 +32,24 @@ def load_frozen_imitator(run_path: str, spec: RendererSpec, device: str) -> torc
     return imitator
 
 
+def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: EncoderConfig):
+    """g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g): (log dict, total)."""
+    device = config.device
+    source, render, g = (batch[k].to(device) for k in ("source", "render", "g"))
+    g_hat = encoder(render)
+    losses, total = {}, torch.zeros((), device=device)
+    if config.loss in ("graphics", "both"):
+        loss_graphics = graphics_loss(g, g_hat)
+        total = total + loss_graphics
+        losses["graphics"] = loss_graphics.detach()
+    if config.loss in ("rendering", "both"):
+        loss_rendering = perceptual(imitator(source, g_hat), render)
+        total = total + config.lambda_rendering * loss_rendering
+        losses["rendering"] = loss_rendering.detach()
+    losses["total"] = total.detach()
+    return losses, total
+
+
 @torch.no_grad()
 def parameter_error(encoder: Encoder, loader, device: str) -> float:
     """Held-out mean squared error of the normalised parameters."""
@@ -61,7 +79,6 @@ def train_encoder(data: str, imitator_run: str | None, out: str, config: Encoder
 
     # 2. Encoder, frozen imitator (the rendering loss), optimiser; resume.
     use_rendering = config.loss in ("rendering", "both")
-    use_graphics = config.loss in ("graphics", "both")
     if use_rendering and not imitator_run:
         raise VtoError("the rendering loss needs --imitator RUN (or --set loss=graphics)")
     imitator = load_frozen_imitator(imitator_run, reader.spec, device) if use_rendering else None
@@ -88,24 +105,13 @@ def train_encoder(data: str, imitator_run: str | None, out: str, config: Encoder
     started, samples_seen = time.perf_counter(), 0
     while step < config.steps:
         batch = next(batches)
-        source, render, g = (batch[k].to(device) for k in ("source", "render", "g"))
-        g_hat = encoder(render)
-        losses, total = {}, torch.zeros((), device=device)
-        if use_graphics:
-            loss_graphics = graphics_loss(g, g_hat)
-            total = total + loss_graphics
-            losses["graphics"] = loss_graphics.detach()
-        if use_rendering:
-            loss_rendering = perceptual(imitator(source, g_hat), render)
-            total = total + config.lambda_rendering * loss_rendering
-            losses["rendering"] = loss_rendering.detach()
-        losses["total"] = total.detach()
+        losses, total = encoder_losses(encoder, imitator, perceptual, batch, config)
         values = check_finite(step + 1, losses)
         optimiser.zero_grad(set_to_none=True)
         total.backward()
         optimiser.step()
         step += 1
-        samples_seen += len(g)
+        samples_seen += len(batch["g"])
 
         # 4. Log, evaluate, checkpoint.
         if step % config.log_every == 0 or step == config.steps:

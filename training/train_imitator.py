@@ -22,6 +22,38 @@ def imitate_moved(imitator: Imitator, source: torch.Tensor, moved_g: torch.Tenso
     return imitator(repeated, moved_g.reshape(batch * m, -1)).reshape(batch, m, *source.shape[1:])
 
 
+def imitator_losses(imitator: Imitator, critic: Critic, critic_opt, perceptual: PerceptualDistance, batch: dict,
+                    config: ImitatorConfig) -> tuple[dict[str, torch.Tensor], torch.Tensor]:
+    """One step's critic update(s), then the imitator's loss terms (detached, for the log) and its total."""
+    device = config.device
+    source, render, g = (batch[k].to(device) for k in ("source", "render", "g"))
+    losses = {}
+    if config.use_gan:
+        for _ in range(config.critic_steps):
+            with torch.no_grad():
+                fake = imitator(source, g)
+            loss_d = critic_loss(critic, render, fake, config.lambda_gp)
+            critic_opt.zero_grad(set_to_none=True)
+            loss_d.backward()
+            critic_opt.step()
+        losses["critic"] = loss_d.detach()
+    fake = imitator(source, g)
+    loss_imitation = perceptual(fake, render)
+    total = config.lambda_imitation * loss_imitation
+    losses["imitation"] = loss_imitation.detach()
+    if config.use_sensitivity:
+        moved_render, moved_g = batch["moved_render"].to(device), batch["moved_g"].to(device)
+        loss_sens = sensitivity_loss(render, moved_render, fake, imitate_moved(imitator, source, moved_g))
+        total = total + config.lambda_sens * loss_sens
+        losses["sensitivity"] = loss_sens.detach()
+    if config.use_gan:
+        loss_gan = generator_adversarial_loss(critic, fake)
+        total = total + loss_gan
+        losses["adversarial"] = loss_gan.detach()
+    losses["total"] = total.detach()
+    return losses, total
+
+
 @torch.no_grad()
 def evaluate(imitator: Imitator, loader, perceptual: PerceptualDistance, device: str) -> dict[str, float]:
     """Held-out imitation distance and L1 of I(X, g) against R(X, g)."""
@@ -79,38 +111,13 @@ def train_imitator(data: str, out: str, config: ImitatorConfig) -> RunFolder:
     started, samples_seen = time.perf_counter(), 0
     while step < config.steps:
         batch = next(batches)
-        source, render, g = (batch[k].to(device) for k in ("source", "render", "g"))
-        losses = {}
-        if config.use_gan:
-            for _ in range(config.critic_steps):
-                with torch.no_grad():
-                    fake = imitator(source, g)
-                loss_d = critic_loss(critic, render, fake, config.lambda_gp)
-                critic_opt.zero_grad(set_to_none=True)
-                loss_d.backward()
-                critic_opt.step()
-            losses["critic"] = loss_d.detach()
-
-        fake = imitator(source, g)
-        loss_imitation = perceptual(fake, render)
-        total = config.lambda_imitation * loss_imitation
-        losses["imitation"] = loss_imitation.detach()
-        if config.use_sensitivity:
-            moved_render, moved_g = batch["moved_render"].to(device), batch["moved_g"].to(device)
-            loss_sens = sensitivity_loss(render, moved_render, fake, imitate_moved(imitator, source, moved_g))
-            total = total + config.lambda_sens * loss_sens
-            losses["sensitivity"] = loss_sens.detach()
-        if config.use_gan:
-            loss_gan = generator_adversarial_loss(critic, fake)
-            total = total + loss_gan
-            losses["adversarial"] = loss_gan.detach()
-        losses["total"] = total.detach()
+        losses, total = imitator_losses(imitator, critic, critic_opt, perceptual, batch, config)
         values = check_finite(step + 1, losses)
         imitator_opt.zero_grad(set_to_none=True)
         total.backward()
         imitator_opt.step()
         step += 1
-        samples_seen += len(g)
+        samples_seen += len(batch["g"])
 
         # 4. Log, evaluate, checkpoint.
         if step % config.log_every == 0 or step == config.steps:
