@@ -160,7 +160,9 @@ def cmd_dataset(argv: list[str]) -> int:
         made = run_in_process(job, indices, args.limit, args.quiet)
     else:
         forwarded = [a for a in argv if a not in ("--quiet",)]
-        forwarded = _drop_option(_drop_option(forwarded, "--workers"), "--shard") + ["--shard", f"{shard[0]}/{shard[1]}"]
+        for option in ("--workers", "--shard", "--limit"):
+            forwarded = _drop_option(forwarded, option)
+        forwarded += ["--shard", f"{shard[0]}/{shard[1]}"]
         made = run_workers(job, indices, args.workers, _launcher() + ["dataset", *forwarded], args.restart_every)
     print(json.dumps({"out": args.out, "shard": f"{shard[0]}/{shard[1]}", "indices": [indices.start, indices.stop],
                       "made": made}))

@@ -42,7 +42,12 @@ def hdri_paths() -> list[str]:
 
 def load_hdri(path: str) -> bpy.types.Image:
     """Load an HDRI once, downscaled: at small render sizes the full map only costs importance-map time."""
-    image = bpy.data.images.load(path, check_existing=True)
+    name = "VTO HDRI " + os.path.basename(path)
+    image = bpy.data.images.get(name)
+    if image is not None:
+        return image
+    image = bpy.data.images.load(path)
+    image.name = name
     if image.size[0] > HDRI_WIDTH:
         image.scale(HDRI_WIDTH, HDRI_WIDTH // 2)
     return image

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import os
 from pathlib import Path
@@ -52,9 +54,10 @@ def export_encoder(run_path: str, out_path: str, opset: int = 18) -> dict:
     tmp = out.with_name(f".tmp-{os.getpid()}-{out.name}")
     try:
         example = torch.rand(2, 3, height, width)
-        torch.onnx.export(encoder, (example,), str(tmp), input_names=[INPUT_NAME], output_names=[OUTPUT_NAME],
-                          opset_version=opset, dynamo=True, external_data=False,
-                          dynamic_shapes=({0: torch.export.Dim("batch", min=1, max=4096)},))
+        with contextlib.redirect_stdout(io.StringIO()):  # the exporter narrates on stdout; ours is one JSON line
+            torch.onnx.export(encoder, (example,), str(tmp), input_names=[INPUT_NAME], output_names=[OUTPUT_NAME],
+                              opset_version=opset, dynamo=True, external_data=False,
+                              dynamic_shapes=({0: torch.export.Dim("batch", min=1, max=4096)},))
         model = onnx.load(str(tmp))
         for key, value in encoder_metadata(checkpoint).items():
             entry = model.metadata_props.add()

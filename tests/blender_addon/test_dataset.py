@@ -142,3 +142,27 @@ def test_scheduler_environment_selects_the_shard():
     with pytest.raises(VtoError, match="VTO_SHARD_COUNT"):
         shard_from_env({"JOB_COMPLETION_INDEX": "1"})
     assert [list(shard_range(10, (i, 3))) for i in range(3)] == [[0, 1, 2], [3, 4, 5], [6, 7, 8, 9]]
+
+
+def test_hair_dataset_from_a_photo_folder(tmp_path):
+    from blender_addon.hair import render_hair_source
+    from vto_core.imageio import write_image
+
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    for seed in (1, 2):
+        source = render_hair_source(seed, 16, 2)
+        write_image(photos / f"p{seed}.png", source.rgb, bits=16)
+        write_image(photos / f"p{seed}_mask.png", source.mask)
+    out = tmp_path / "hair"
+    assert cmd_dataset(["hair", "--out", str(out), "--n", "3", "--res", "16", "--source-folder", str(photos),
+                        "--params", "hue,intensity", "--sensitivity", "--quiet"]) == 0
+    reader = DatasetReader(out)
+    for position in range(3):
+        sample = reader[position]
+        photo = photos / f"p{1 + sample.record['source'] % 2}.png"
+        from vto_core.imageio import read_image
+
+        assert np.abs(sample.source - read_image(photo)[0]).max() < 1e-4
+        assert sample.mask is not None and sample.mask.max() == 1.0
+        assert sample.sensitivity.shape == (2, 16, 16, 3)

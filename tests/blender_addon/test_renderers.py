@@ -183,3 +183,24 @@ def test_spec_ranges_cover_the_paper():
     hair = get_spec("hair").by_name
     assert (hair["gamma"].low, hair["gamma"].high) == (0.5, 3.0)
     assert (hair["blend"].low, hair["blend"].high) == (-1.0, 1.0)
+
+
+def test_a_photo_with_its_mask_is_a_hair_source(tmp_path, hair_sources):
+    from blender_addon.hair import load_photo_source, photo_sources
+    from vto_core.imageio import write_image
+
+    source = hair_sources[0]
+    write_image(tmp_path / "portrait.png", source.rgb, bits=16)
+    write_image(tmp_path / "portrait_mask.png", source.mask)
+    write_image(tmp_path / "no_mask.png", source.rgb)
+    assert photo_sources(tmp_path) == [tmp_path / "portrait.png"]
+    photo = load_photo_source(tmp_path / "portrait.png")
+    assert np.array_equal(photo.mask, source.mask) and np.abs(photo.rgb - source.rgb).max() < 1e-4
+    values = {"hue": 0.4, "saturation": 2.0}
+    from_file = render("hair", values, str(tmp_path / "portrait.png"), RES, SAMPLES)
+    assert np.abs(from_file - run_hair_stage(source, values)).max() < 2e-3
+    assert load_photo_source(tmp_path / "portrait.png", res=32).rgb.shape == (32, 32, 3)
+    with pytest.raises(VtoError, match="no mask for"):
+        render("hair", values, str(tmp_path / "no_mask.png"), RES, SAMPLES)
+    with pytest.raises(VtoError, match="holds no photo"):
+        photo_sources(tmp_path / "empty") if (tmp_path / "empty").mkdir() is None else None
