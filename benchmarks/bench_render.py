@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import os
 
-import numpy as np
-
 from benchmarks.common import best_time, write_table
 from blender_addon.hair import render_hair_source, run_hair_stage
 from blender_addon.lipstick import render_lipstick

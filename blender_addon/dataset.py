@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import time
@@ -18,6 +19,8 @@ from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler
 from vto_core.specs import RendererSpec, get_spec
+
+from .render import THREADS_ENV
 
 _SOURCE_STREAM = 7
 
@@ -204,22 +207,21 @@ def run_workers(job: DatasetJob, indices: range, workers: int, worker_command: l
     initially_done = len(wanted & finished_indices(out))
     progress = Progress(len(wanted), renders_per_sample(job))
     running: dict[int, subprocess.Popen] = {}
+    environment = {**os.environ, THREADS_ENV: str(max(1, (os.cpu_count() or 1) // workers))}
     try:
         while True:
-            done = len(wanted & finished_indices(out))
-            for w in range(workers):
-                process = running.get(w)
-                if process is not None and process.poll() is not None:
+            finished = wanted & finished_indices(out)
+            for w, process in list(running.items()):
+                if process.poll() is not None:
                     if process.returncode != 0:
                         raise VtoError(f"dataset worker {w}/{workers} failed with exit status {process.returncode}")
                     running.pop(w)
-            mine = {w: [i for i in indices if (i - indices.start) % workers == w and i not in finished_indices(out)]
-                    for w in range(workers)} if len(running) < workers else {}
-            for w, left in mine.items():
-                if left and w not in running:
+            for w in range(workers):
+                # A worker exits after restart_every samples (memory stays flat); start a fresh one while work is left.
+                if w not in running and any(i not in finished for i in worker_indices(indices, (w, workers))):
                     running[w] = subprocess.Popen(worker_command + ["--worker", f"{w}/{workers}", "--limit",
-                                                                    str(restart_every), "--quiet"])
-            progress.update(done, done - initially_done)
+                                                                    str(restart_every), "--quiet"], env=environment)
+            progress.update(len(finished), len(finished) - initially_done)
             if not running:
                 break
             time.sleep(0.2)

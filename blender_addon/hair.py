@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -10,7 +11,7 @@ import bpy
 import numpy as np
 
 from vto_core.errors import VtoError
-from vto_core.hair import LUT_POINTS, fit_hair_match, hair_gradient
+from vto_core.hair import fit_hair_match, hair_gradient
 from vto_core.imageio import read_image, resize
 from vto_core.specs import get_spec
 
@@ -75,9 +76,10 @@ def load_photo_source(photo: str | os.PathLike, res: int | None = None) -> HairS
     return HairSource(np.clip(rgb, 0, 1).astype(np.float32), (mask > 0.5).astype(np.float32))
 
 
-def load_swatch(path: str | os.PathLike | None = None) -> np.ndarray:
-    """The reference hair swatch (h, w, 3) display values."""
-    rgb, _ = read_image(path or SWATCH_PATH)
+@functools.lru_cache(maxsize=4)
+def load_swatch(path: str | os.PathLike = SWATCH_PATH) -> np.ndarray:
+    """The reference hair swatch (h, w, 3) display values (read once per path; do not modify)."""
+    rgb, _ = read_image(path)
     return np.clip(rgb, 0, 1)
 
 

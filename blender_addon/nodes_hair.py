@@ -95,7 +95,7 @@ def set_lut(group: bpy.types.NodeTree, gray_lut, channel_luts) -> None:
     mapping = group.nodes[LUT_NODE].mapping
     for curve, (xs, ys) in zip((mapping.curves[3], *mapping.curves[:3]), (gray_lut, *channel_luts)):
         points = curve.points
-        while len(points) > 2:
+        while len(points) > max(len(xs), 2):
             points.remove(points[-1])
         while len(points) < len(xs):
             points.new(0.5, 0.5)

@@ -12,7 +12,8 @@ import numpy as np
 
 from vto_core.colour import srgb_to_linear
 
-from .scene_lips import SKIN_TONES, hdri_paths, load_hdri
+from .lighting import build_hdri_world, randomise_hdri
+from .scene_lips import SKIN_TONES
 
 SCENE_NAME = "VTO Hair"
 HAIR_OBJECT = "VTO Hair Strands"
@@ -110,20 +111,7 @@ def build_hair_scene() -> bpy.types.Scene:
     scene.collection.objects.link(camera)
     scene.camera = camera
 
-    world = bpy.data.worlds.new(SCENE_NAME)
-    world.use_nodes = True
-    nodes, links = world.node_tree.nodes, world.node_tree.links
-    mapping = nodes.new("ShaderNodeMapping")
-    mapping.name = "HDRI Rotation"
-    environment = nodes.new("ShaderNodeTexEnvironment")
-    environment.name = "HDRI"
-    environment.image = load_hdri(hdri_paths()[0])
-    links.new(nodes.new("ShaderNodeTexCoord").outputs["Generated"], mapping.inputs["Vector"])
-    links.new(mapping.outputs[0], environment.inputs["Vector"])
-    links.new(environment.outputs[0], nodes["Background"].inputs["Color"])
-    world.cycles.sampling_method = "MANUAL"
-    world.cycles.sample_map_resolution = 128
-    scene.world = world
+    build_hdri_world(scene)
     scene.view_layers[0].use_pass_object_index = True
     apply_source(scene, 0)
     return scene
@@ -144,11 +132,7 @@ def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
     head = bpy.data.materials[HEAD_MATERIAL].node_tree.nodes["Principled BSDF"]
     head.inputs["Base Color"].default_value = (*srgb_to_linear(tone), 1.0)
 
-    world_nodes = scene.world.node_tree.nodes
-    paths = hdri_paths()
-    world_nodes["HDRI"].image = load_hdri(paths[rng.integers(len(paths))])
-    world_nodes["HDRI Rotation"].inputs["Rotation"].default_value = (0.0, 0.0, rng.uniform(0, 2 * math.pi))
-    world_nodes["Background"].inputs["Strength"].default_value = rng.uniform(0.7, 1.5)
+    randomise_hdri(scene, rng, (0.7, 1.5))
 
     scene.objects[HEAD_OBJECT].rotation_euler = (0.0, 0.0, rng.normal(0, 0.25))
     scene.objects[HAIR_OBJECT].rotation_euler = scene.objects[HEAD_OBJECT].rotation_euler

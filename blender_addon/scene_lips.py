@@ -6,14 +6,13 @@ so that a long dataset run creates no data blocks per sample.
 
 from __future__ import annotations
 
-import math
-import os
 
 import bpy
 import numpy as np
 
 from vto_core.colour import srgb_to_linear
 
+from .lighting import build_hdri_world, randomise_hdri
 from .nodes_lipstick import lipstick_group
 
 SCENE_NAME = "VTO Lips"
@@ -27,30 +26,10 @@ LIP_COLUMNS, LIP_ROWS = 48, 12  # per lip: across the mouth, outer contour -> mo
 SKIN_COLUMNS, SKIN_ROWS = 80, 60
 SKIN_HALF_WIDTH, SKIN_HALF_HEIGHT = 2.2, 1.6
 MOUTH_DEPTH = 0.35
-HDRI_WIDTH = 256  # 0.07 s per render instead of 1.1 s at full size (importance map rebuilt each render)
 
 # sRGB 8-bit tones, light to dark.
 SKIN_TONES = [(241, 194, 167), (224, 172, 138), (198, 146, 110), (161, 110, 75), (118, 78, 52), (80, 52, 36)]
 LIP_TONE_SHIFT = (-0.06, -0.22, -0.18)  # lips: a redder, darker version of the skin tone
-
-
-def hdri_paths() -> list[str]:
-    """Blender's bundled studio-light HDRIs (CC0), sorted so a seed picks the same file everywhere."""
-    folder = os.path.join(bpy.utils.system_resource("DATAFILES"), "studiolights", "world")
-    return sorted(os.path.join(folder, f) for f in os.listdir(folder) if f.endswith(".exr"))
-
-
-def load_hdri(path: str) -> bpy.types.Image:
-    """Load an HDRI once, downscaled: at small render sizes the full map only costs importance-map time."""
-    name = "VTO HDRI " + os.path.basename(path)
-    image = bpy.data.images.get(name)
-    if image is not None:
-        return image
-    image = bpy.data.images.load(path)
-    image.name = name
-    if image.size[0] > HDRI_WIDTH:
-        image.scale(HDRI_WIDTH, HDRI_WIDTH // 2)
-    return image
 
 
 def lip_shape(rng: np.random.Generator) -> dict[str, float]:
@@ -157,24 +136,6 @@ def _skin_material() -> bpy.types.Material:
     return material
 
 
-def _world(scene) -> None:
-    world = bpy.data.worlds.new(SCENE_NAME)
-    world.use_nodes = True
-    nodes, links = world.node_tree.nodes, world.node_tree.links
-    coords = nodes.new("ShaderNodeTexCoord")
-    mapping = nodes.new("ShaderNodeMapping")
-    mapping.name = "HDRI Rotation"
-    environment = nodes.new("ShaderNodeTexEnvironment")
-    environment.name = "HDRI"
-    environment.image = load_hdri(hdri_paths()[0])
-    world.cycles.sampling_method = "MANUAL"
-    world.cycles.sample_map_resolution = HDRI_WIDTH // 2
-    links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
-    links.new(mapping.outputs[0], environment.inputs["Vector"])
-    links.new(environment.outputs[0], nodes["Background"].inputs["Color"])
-    scene.world = world
-
-
 def build_lips_scene() -> bpy.types.Scene:
     """Get or create the lips scene (geometry at source 0)."""
     scene = bpy.data.scenes.get(SCENE_NAME)
@@ -199,7 +160,7 @@ def build_lips_scene() -> bpy.types.Scene:
     camera.data.lens = 62.0
     scene.collection.objects.link(camera)
     scene.camera = camera
-    _world(scene)
+    build_hdri_world(scene)
     apply_source(scene, 0)
     return scene
 
@@ -225,11 +186,7 @@ def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
     lips_material = bpy.data.materials[LIPS_MATERIAL].node_tree.nodes
     lips_material["Bare Lips"].inputs["Base Color"].default_value = (*srgb_to_linear(lip_tone), 1.0)
 
-    world_nodes = scene.world.node_tree.nodes
-    paths = hdri_paths()
-    world_nodes["HDRI"].image = load_hdri(paths[rng.integers(len(paths))])
-    world_nodes["HDRI Rotation"].inputs["Rotation"].default_value = (0.0, 0.0, rng.uniform(0, 2 * math.pi))
-    world_nodes["Background"].inputs["Strength"].default_value = rng.uniform(0.6, 1.6)
+    randomise_hdri(scene, rng, (0.6, 1.6))
 
     camera = scene.camera
     camera.location = (rng.normal(0, 0.08), rng.normal(-0.05, 0.08), rng.uniform(3.6, 4.4))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import time
 from pathlib import Path
 
 import torch
@@ -111,3 +112,28 @@ def _atomic_write_text(path: Path, text: str) -> None:
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(text)
     os.replace(tmp, path)
+
+
+def optimise(run: RunFolder, config, step: int, batches, losses_fn, optimiser, validate, save) -> int:
+    """The loop both trainers share: losses_fn(batch) -> (log terms, total); NaN stop, log, validate, checkpoint.
+
+    Runs from `step` to config.steps; validate() -> dict of held-out numbers; save(step) writes a checkpoint.
+    """
+    started, samples_seen = time.perf_counter(), 0
+    while step < config.steps:
+        batch = next(batches)
+        losses, total = losses_fn(batch)
+        values = check_finite(step + 1, losses)
+        optimiser.zero_grad(set_to_none=True)
+        total.backward()
+        optimiser.step()
+        step += 1
+        samples_seen += len(batch["g"])
+        if step % config.log_every == 0 or step == config.steps:
+            values["samples_per_s"] = samples_seen / (time.perf_counter() - started)
+            values.update(validate())
+            run.log(step, values)
+        if step % config.checkpoint_every == 0 or step == config.steps:
+            save(step)
+    save(step)
+    return step

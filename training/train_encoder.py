@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import torch
 
 from vto_core.dataset import DatasetReader
@@ -14,7 +12,7 @@ from .config import EncoderConfig, config_dict
 from .data import RenderDataset, endless, make_loader, split
 from .losses import PerceptualDistance, graphics_loss
 from .networks import Encoder, build
-from .run import RunFolder, check_finite
+from .run import RunFolder, optimise
 
 
 def load_frozen_imitator(run_path: str, spec: RendererSpec, device: str) -> torch.nn.Module:
@@ -94,35 +92,20 @@ def train_encoder(data: str, imitator_run: str | None, out: str, config: Encoder
         run.truncate_log(step)
     image_size = list(train_set[0]["render"].shape[1:])
 
-    def save() -> None:
+    def save(at_step: int) -> None:
         run.save_checkpoint({
-            "kind": "encoder", "step": step, "model": encoder.state_dict(), "model_args": encoder.model_args,
+            "kind": "encoder", "step": at_step, "model": encoder.state_dict(), "model_args": encoder.model_args,
             "optimizer": optimiser.state_dict(), "config": config_dict(config), "spec": reader.spec.to_dict(),
             "image_size": image_size, "imitator": imitator_run,
         })
 
+    def validate() -> dict[str, float]:
+        return {"val_param_mse": parameter_error(encoder, val_loader, device)} if val_loader is not None else {}
+
     # 3. Loop: g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g).
-    started, samples_seen = time.perf_counter(), 0
-    while step < config.steps:
-        batch = next(batches)
-        losses, total = encoder_losses(encoder, imitator, perceptual, batch, config)
-        values = check_finite(step + 1, losses)
-        optimiser.zero_grad(set_to_none=True)
-        total.backward()
-        optimiser.step()
-        step += 1
-        samples_seen += len(batch["g"])
+    optimise(run, config, step, batches, lambda batch: encoder_losses(encoder, imitator, perceptual, batch, config),
+             optimiser, validate, save)
 
-        # 4. Log, evaluate, checkpoint.
-        if step % config.log_every == 0 or step == config.steps:
-            values["samples_per_s"] = samples_seen / (time.perf_counter() - started)
-            if val_loader is not None:
-                values["val_param_mse"] = parameter_error(encoder, val_loader, device)
-            run.log(step, values)
-        if step % config.checkpoint_every == 0 or step == config.steps:
-            save()
-
-    # 5. Final checkpoint and loss plot.
-    save()
+    # 4. Loss plot.
     run.plot(f"encoder ({reader.spec.renderer}, loss: {config.loss})")
     return run

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import torch
 
 from vto_core.dataset import DatasetReader
@@ -12,7 +10,7 @@ from .config import ImitatorConfig, config_dict
 from .data import RenderDataset, endless, make_loader, split
 from .losses import PerceptualDistance, critic_loss, generator_adversarial_loss, sensitivity_loss
 from .networks import Critic, Imitator
-from .run import RunFolder, check_finite
+from .run import RunFolder, optimise
 
 
 def imitate_moved(imitator: Imitator, source: torch.Tensor, moved_g: torch.Tensor) -> torch.Tensor:
@@ -99,36 +97,23 @@ def train_imitator(data: str, out: str, config: ImitatorConfig) -> RunFolder:
         step = checkpoint["step"]
         run.truncate_log(step)
 
-    def save() -> None:
+    def save(at_step: int) -> None:
         run.save_checkpoint({
-            "kind": "imitator", "step": step, "model": imitator.state_dict(), "model_args": imitator.model_args,
+            "kind": "imitator", "step": at_step, "model": imitator.state_dict(), "model_args": imitator.model_args,
             "optimizer": imitator_opt.state_dict(), "critic": critic.state_dict(), "critic_args": critic.model_args,
             "critic_optimizer": critic_opt.state_dict(), "config": config_dict(config), "spec": reader.spec.to_dict(),
             "perceptual": perceptual.kind, "image_size": list(train_set[0]["render"].shape[1:]),
         })
 
-    # 3. Loop: critic update(s), then the imitator on imitation + sensitivity + adversarial terms.
-    started, samples_seen = time.perf_counter(), 0
-    while step < config.steps:
-        batch = next(batches)
-        losses, total = imitator_losses(imitator, critic, critic_opt, perceptual, batch, config)
-        values = check_finite(step + 1, losses)
-        imitator_opt.zero_grad(set_to_none=True)
-        total.backward()
-        imitator_opt.step()
-        step += 1
-        samples_seen += len(batch["g"])
+    def validate() -> dict[str, float]:
+        return evaluate(imitator, val_loader, perceptual, device) if val_loader is not None else {}
 
-        # 4. Log, evaluate, checkpoint.
-        if step % config.log_every == 0 or step == config.steps:
-            values["samples_per_s"] = samples_seen / (time.perf_counter() - started)
-            if val_loader is not None:
-                values.update(evaluate(imitator, val_loader, perceptual, device))
-            run.log(step, values)
-        if step % config.checkpoint_every == 0 or step == config.steps:
-            save()
+    # 3. Loop: critic update(s), then the imitator on imitation + sensitivity + adversarial terms;
+    #    log, validate and checkpoint as configured.
+    optimise(run, config, step, batches,
+             lambda batch: imitator_losses(imitator, critic, critic_opt, perceptual, batch, config),
+             imitator_opt, validate, save)
 
-    # 5. Final checkpoint and loss plot.
-    save()
+    # 4. Loss plot.
     run.plot(f"imitator ({reader.spec.renderer}, {reader.spec.size} parameters)")
     return run

@@ -164,8 +164,6 @@ class DatasetReader:
     """Read a dataset without bpy: len(), reader[i] -> Sample for the finished samples, in index order."""
 
     def __init__(self, root: str | os.PathLike):
-        from .specs import RendererSpec
-
         self.root = Path(root)
         self.manifest = read_manifest(self.root)
         if self.manifest.get("format_version") != FORMAT_VERSION:

@@ -122,6 +122,12 @@ def test_export_matches_torch_and_refuses_another_spec(lipstick_dataset, tmp_pat
     sample = DatasetReader(lipstick_dataset)[0]
     values = session.predict(sample.render)[0]
     assert set(values) == set(get_spec("lipstick").by_name) and all(np.isfinite(list(values.values())))
+    # any size, HDR, NaN, black and constant images give finite parameters inside the ranges
+    odd = [np.full((40, 24, 3), 50.0, np.float32), np.zeros((16, 16, 3), np.float32),
+           np.full((16, 16, 3), 0.5, np.float32), np.where(np.eye(16)[..., None] > 0, np.nan, 0.3).repeat(3, -1)]
+    for estimate in session.predict(odd):
+        assert all(np.isfinite(v) for v in estimate.values())
+        assert all(spec.by_name[k].low <= v <= spec.by_name[k].high for k, v in estimate.items() if k in spec.modelled)
     with pytest.raises(VtoError, match=r"estimates lipstick \[opacity, red, green, blue\], not lipstick \[red\]"):
         EncoderSession(tmp_path / "encoder.onnx", expected_spec=get_spec("lipstick", "red"))
     with pytest.raises(VtoError, match="not a VTO encoder|cannot load"):
