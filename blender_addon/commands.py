@@ -111,9 +111,9 @@ def cmd_dataset(argv: list[str]) -> int:
     """vto dataset RENDERER --out DIR --n N --seed S [--shard i/K] [--res] [--samples] [--params] [--sensitivity] [--workers W]."""
     import bpy
 
-    from vto_core.dataset import parse_shard, shard_from_env
+    from vto_core.dataset import parse_shard, shard_from_env, shard_range
 
-    from .dataset import DatasetJob, job_indices, prepare_output, run_in_process, run_workers, worker_indices
+    from .dataset import DatasetJob, prepare_output, run_in_process, run_workers, worker_indices
 
     parser = ArgumentParser(prog="vto dataset", description="render a training dataset (paper 5.2, 6.1)")
     parser.add_argument("renderer", choices=["lipstick", "hair"])
@@ -149,12 +149,10 @@ def cmd_dataset(argv: list[str]) -> int:
     job = DatasetJob(args.renderer, args.out, args.n, args.seed, args.res, args.samples,
                      args.params.split(",") if args.params else None, args.sensitivity, args.uniform_ratio,
                      args.source_folder, scene)
-    indices = job_indices(job, shard)
-    if args.worker is not None:
-        from vto_core.dataset import parse_shard as parse_worker
-
-        made = run_in_process(job, worker_indices(indices, parse_worker(args.worker)), args.limit, quiet=True)
-        return 0 if made >= 0 else 1
+    indices = shard_range(job.n, shard)
+    if args.worker is not None:  # one of run_workers' processes: its share of the shard, then exit
+        run_in_process(job, worker_indices(indices, parse_shard(args.worker)), args.limit, quiet=True)
+        return 0
     prepare_output(job)
     if args.workers == 1:
         made = run_in_process(job, indices, args.limit, args.quiet)

@@ -13,8 +13,7 @@ import bpy
 import numpy as np
 
 import vto_core
-from vto_core.dataset import (FORMAT_VERSION, SampleWriter, finished_indices, remove_stale_temporaries,
-                              shard_range, write_manifest)
+from vto_core.dataset import FORMAT_VERSION, SampleWriter, finished_indices, remove_stale_temporaries, write_manifest
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler
@@ -238,7 +237,3 @@ def worker_indices(indices: range, worker: tuple[int, int]) -> list[int]:
     w, count = worker
     return [i for i in indices if (i - indices.start) % count == w]
 
-
-def job_indices(job: DatasetJob, shard: tuple[int, int]) -> range:
-    """This shard's sample indices."""
-    return shard_range(job.n, shard)

@@ -74,23 +74,27 @@ class RunFolder:
         return [json.loads(line) for line in path.read_text().splitlines() if line] if path.exists() else []
 
     def plot(self, title: str) -> Path:
-        """Plot every logged loss against the step to losses.png (log scale where all values are positive)."""
+        """One small panel per logged loss against the step (log scale where positive) -> losses.png."""
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
         rows = self.read_log()
-        names = sorted({k for row in rows for k in row if k != "step"})
-        figure, axis = plt.subplots(figsize=(7, 4), dpi=100)
-        for name in names:
-            points = [(row["step"], row[name]) for row in rows if name in row]
-            axis.plot(*zip(*points), label=name)
-        if rows and all(row[n] > 0 for row in rows for n in names if n in row):
-            axis.set_yscale("log")
-        axis.set_xlabel("step")
-        axis.set_title(title)
-        axis.legend(fontsize=7)
+        names = sorted({k for row in rows for k in row if k not in ("step", "samples_per_s")})
+        columns = min(len(names), 3) or 1
+        lines = -(-len(names) // columns) or 1
+        figure, axes = plt.subplots(lines, columns, figsize=(3.2 * columns, 2.4 * lines), dpi=100, squeeze=False)
+        for axis, name in zip(axes.flat, names):
+            steps, values = zip(*[(row["step"], row[name]) for row in rows if name in row])
+            axis.plot(steps, values)
+            if min(values) > 0:
+                axis.set_yscale("log")
+            axis.set_title(name, fontsize=9)
+            axis.tick_params(labelsize=7)
+        for axis in list(axes.flat)[len(names):]:
+            axis.axis("off")
+        figure.suptitle(title, fontsize=10)
         figure.tight_layout()
         path = self.path / PLOT
         figure.savefig(path)
