@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 
+import bmesh
 import bpy
 import numpy as np
 
@@ -84,8 +85,6 @@ def build_hair_scene() -> bpy.types.Scene:
         return scene
     scene = bpy.data.scenes.new(SCENE_NAME)
     mesh = bpy.data.meshes.new(HEAD_OBJECT)
-    import bmesh
-
     shape = bmesh.new()
     bmesh.ops.create_uvsphere(shape, u_segments=48, v_segments=24, radius=HEAD_RADIUS)
     shape.to_mesh(mesh)
