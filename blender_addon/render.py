@@ -40,7 +40,10 @@ def configure_cycles(scene: bpy.types.Scene, res: int, samples: int, seed: int =
     cycles.glossy_bounces = 2
     cycles.transmission_bounces = 2
     cycles.transparent_max_bounces = 2
-    cycles.sample_clamp_indirect = 4.0  # fireflies from small bright HDRI spots dominate 16-sample noise
+    # Small bright HDRI spots make fireflies that dominate small-sample noise: clamping each sample at 1
+    # (display white) took the PSNR between two seeds from 20.8 to 31.2 dB (128 px, 32 spp).
+    cycles.sample_clamp_direct = 1.0
+    cycles.sample_clamp_indirect = 1.0
     threads = int(os.environ.get(THREADS_ENV, "0"))
     scene.render.threads_mode = "FIXED" if threads > 0 else "AUTO"
     if threads > 0:

@@ -11,6 +11,7 @@ from .histogram import HistogramMatch, fit_histogram_match
 SWATCH_PARAMS = ("brightness", "contrast", "exposure", "gamma", "hue", "saturation")
 LUT_POINTS = 64
 BLEND_RAMP = 2.0  # the faded look goes from none to full over half the hair's height
+CURVE_TABLE_POINTS = 257  # Blender tabulates a curve at 257 points over [0, 1]
 
 
 def hair_gradient(mask: np.ndarray) -> np.ndarray:
@@ -49,12 +50,27 @@ def fit_hair_match(source: np.ndarray, mask: np.ndarray, recoloured_swatch: np.n
     return fit_histogram_match(source, recoloured_swatch, source_mask=mask, n_points=LUT_POINTS)
 
 
+def apply_curves_node(rgb: np.ndarray, match: HistogramMatch) -> np.ndarray:
+    """match.apply as Blender's RGB Curves node computes it: (..., 3) -> (..., 3) float32.
+
+    Blender folds the C (gray) curve into each channel's table: table_c[k] = C(channel_c(t_k)) at 257 points
+    t_k, then interpolates that table linearly. Where C is steep this differs from C(channel_c(x)).
+    """
+    t = np.linspace(0.0, 1.0, CURVE_TABLE_POINTS)
+    gray_table = np.interp(t, *match.gray_lut)
+    channels = []
+    for c, lut in enumerate(match.channel_luts):
+        folded = np.interp(np.interp(t, *lut), t, gray_table)
+        channels.append(np.interp(np.clip(rgb[..., c], 0.0, 1.0), t, folded))
+    return np.stack(channels, axis=-1).astype(np.float32)
+
+
 def apply_hair_stage(source: np.ndarray, mask: np.ndarray, gradient: np.ndarray, match: HistogramMatch,
                      values: dict[str, float]) -> np.ndarray:
     """Pass 2: LUT, shine, then mix into the source by mask * blend weight * intensity: (H, W, 3)."""
     if source.shape[:2] != np.shape(mask) or np.shape(mask) != np.shape(gradient):
         raise VtoError(f"source {source.shape[:2]}, mask {np.shape(mask)} and gradient {np.shape(gradient)} differ in size")
-    recoloured = shine(match.apply(source), values["shine"])
+    recoloured = shine(apply_curves_node(source, match), values["shine"])
     alpha = np.clip(mask, 0, 1) * blend_weight(gradient, values["blend"]) * values["intensity"]
     return (source + alpha[..., None] * (recoloured - source)).astype(np.float32)
 

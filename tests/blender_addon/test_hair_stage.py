@@ -30,6 +30,6 @@ def test_compositor_matches_numpy_reference(name, values, hair_source):
     error = np.abs(blender - reference).max(axis=-1)[hair_source.mask > 0.5] * 255
     print(f"{name}: masked MAE {error.mean():.4f}/255, p99 {np.percentile(error, 99):.3f}/255, max {error.max():.2f}/255")
     assert error.mean() < 1.0
-    assert np.percentile(error, 99) < 6.0  # isolated pixels on steep LUT segments (Blender samples curves at 256 points)
+    assert error.max() < 0.5  # the reference folds the C curve into 257-point channel tables as Blender does
     outside = np.abs(blender - hair_source.rgb)[hair_source.mask < 0.5]
     assert outside.max() < 1e-4, "pixels outside the hair mask must not change"

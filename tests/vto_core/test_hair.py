@@ -1,0 +1,69 @@
+"""Numpy reference of the hair stage: gradient, shine, faded look, curves as Blender tabulates them."""
+
+import numpy as np
+import pytest
+
+from vto_core.errors import VtoError
+from vto_core.hair import (CURVE_TABLE_POINTS, apply_curves_node, apply_hair_stage, blend_weight, hair_gradient,
+                           render_hair_reference, shine)
+from vto_core.histogram import HistogramMatch
+from vto_core.specs import get_spec
+
+IDENTITY = (np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+
+
+def test_gradient_runs_from_the_top_to_the_bottom_of_the_hair():
+    mask = np.zeros((6, 3))
+    mask[1:5, 1] = 1
+    t = hair_gradient(mask)
+    assert t[:, 0].tolist() == pytest.approx([0, 0, 1 / 3, 2 / 3, 1, 1])
+    assert np.array_equal(t[:, 0], t[:, 2])
+    assert not hair_gradient(np.zeros((4, 4))).any()
+
+
+def test_shine_keeps_ends_and_boosts_contrast():
+    y = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+    assert shine(y, 0.0) == pytest.approx(y)
+    boosted = shine(y, 1.0)
+    assert boosted == pytest.approx([0, 0.15625, 0.5, 0.84375, 1])  # smoothstep
+    assert np.isfinite(shine(np.array([-3.0, 7.0, np.float32(3e38)]), 1.0)).all()
+
+
+def test_blend_weight_ends():
+    t = np.linspace(0, 1, 5)
+    assert blend_weight(t, -1.0) == pytest.approx(np.ones(5))
+    assert blend_weight(t, 1.0) == pytest.approx(np.zeros(5))
+    assert blend_weight(t, 0.0) == pytest.approx([0, 0.5, 1, 1, 1])
+
+
+def test_curves_node_equals_the_exact_composition_for_gentle_curves():
+    gray = (np.linspace(0, 1, 3), np.array([0.0, 0.6, 1.0]))
+    match = HistogramMatch(gray, (IDENTITY, IDENTITY, IDENTITY))
+    rgb = np.random.default_rng(0).random((8, 8, 3))
+    assert np.abs(apply_curves_node(rgb, match) - match.apply(rgb)).max() < 1e-6
+
+
+def test_curves_node_tabulates_the_folded_curve_like_blender():
+    # R halves, then a step in C between 0.25 and 0.25 + 1/1000: exact composition jumps, Blender's table does not
+    step = (np.array([0.0, 0.25, 0.251, 1.0]), np.array([0.0, 0.0, 1.0, 1.0]))
+    halve = (np.array([0.0, 1.0]), np.array([0.0, 0.5]))
+    match = HistogramMatch(step, (halve, IDENTITY, IDENTITY))
+    x = np.array([[[0.5022, 0.0, 0.0]]])
+    exact, node = match.apply(x)[0, 0, 0], apply_curves_node(x, match)[0, 0, 0]
+    t = np.linspace(0, 1, CURVE_TABLE_POINTS)
+    folded = np.interp(np.interp(t, *halve), t, np.interp(t, *step))
+    assert node == pytest.approx(np.interp(0.5022, t, folded))
+    assert exact == pytest.approx(1.0) and node < 0.9
+
+
+def test_stage_leaves_pixels_outside_the_mask_and_checks_shapes():
+    rng = np.random.default_rng(1)
+    source, swatch = rng.random((16, 16, 3)).astype(np.float32), rng.random((8, 8, 3))
+    mask = np.zeros((16, 16), np.float32)
+    mask[4:12, 4:12] = 1
+    values = get_spec("hair").full_values({"hue": 0.5, "saturation": 2.0})
+    out = render_hair_reference(source, mask, swatch, values)
+    assert np.array_equal(out[mask == 0], source[mask == 0])
+    assert np.abs(out[mask == 1] - source[mask == 1]).mean() > 0.01
+    with pytest.raises(VtoError, match="differ in size"):
+        apply_hair_stage(source, mask[:8], hair_gradient(mask), None, values)
