@@ -16,7 +16,8 @@ SHADER_TREE = "ShaderNodeTree"
 BASE_ROUGHNESS = 0.55
 GLOSS_GAIN = 0.12
 REFLECTION_ROUGHNESS = 0.03
-SPARKLE_SCALE_FINE, SPARKLE_SCALE_COARSE = 400.0, 60.0
+SPARKLE_CELLS = 150.0  # flake positions stay put as the size changes, so size grows flakes in place
+SPARKLE_RADIUS_MIN, SPARKLE_RADIUS_MAX = 0.1, 0.5  # flake radius in cell units over Sparkle Size [0, 1]
 SPARKLE_GAIN = 3.0
 LIP_LINE_WIDTH = 0.25  # in UV v, from the outer contour
 LIP_LINE_DARKENING = 0.75
@@ -123,15 +124,15 @@ def _build_lipstick(group: bpy.types.NodeTree) -> None:
     coords = b.node("TexCoord")
     cells = b.node("TexVoronoi", label="Sparkle Cells")
     b.link(coords.outputs["Object"], cells.inputs["Vector"])
-    scale = b.node("MapRange", label="Sparkle Scale")
-    b.link(gin["Sparkle Size"], scale.inputs["Value"])
-    b.link(SPARKLE_SCALE_FINE, scale.inputs["To Min"])
-    b.link(SPARKLE_SCALE_COARSE, scale.inputs["To Max"])
-    b.link(scale.outputs[0], cells.inputs["Scale"])
+    b.link(SPARKLE_CELLS, cells.inputs["Scale"])
+    radius = b.node("MapRange", label="Sparkle Radius")
+    b.link(gin["Sparkle Size"], radius.inputs["Value"])
+    b.link(SPARKLE_RADIUS_MIN, radius.inputs["To Min"])
+    b.link(SPARKLE_RADIUS_MAX, radius.inputs["To Max"])
     cell_random = b.node("SeparateColor")
     b.link(cells.outputs["Color"], cell_random.inputs[0])
     is_flake = b.math("MULTIPLY", b.math("LESS_THAN", cell_random.outputs[0], gin["Sparkle Density"]),
-                      b.math("LESS_THAN", cells.outputs["Distance"], 0.35))
+                      b.math("LESS_THAN", cells.outputs["Distance"], radius.outputs[0]))
     flake_level = b.math("MULTIPLY", b.math("MULTIPLY", is_flake, gin["Sparkle Intensity"]), SPARKLE_GAIN)
     flake_colour = b.node("VectorMath", operation="SCALE")
     b.link(sparkle_colour.outputs[0], flake_colour.inputs[0])
