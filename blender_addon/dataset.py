@@ -46,6 +46,12 @@ class DatasetJob:
             raise VtoError(f"--n must be at least 1, got {self.n}")
         if self.seed < 0:
             raise VtoError(f"--seed must be >= 0, got {self.seed}")
+        if not 8 <= self.res <= 4096 or not 1 <= self.samples <= 65536:
+            raise VtoError(f"--res must be in [8, 4096] and --samples in [1, 65536], got {self.res} and {self.samples}")
+        if not 0.0 <= self.uniform_ratio <= 1.0:
+            raise VtoError(f"--uniform-ratio must be in [0, 1], got {self.uniform_ratio}")
+        if self.source_folder is not None and not Path(self.source_folder).is_dir():
+            raise VtoError(f"--source-folder {self.source_folder} is not a folder")
         self.spec = get_spec(self.renderer, self.params)
 
     def manifest(self) -> dict:

@@ -112,10 +112,13 @@ def test_two_workers_make_the_same_files(tmp_path):
     (["--n", "4", "--shard", "3/2"], "need 0 <= i < K"),
     (["--n", "4", "--params", "red,shimmer"], "unknown lipstick parameter"),
     (["--n", "4", "--workers", "0"], "--workers must be at least 1"),
+    (["--n", "4", "--res", "4"], "--res must be in [8, 4096]"),
+    (["--n", "4", "--uniform-ratio", "1.5"], "--uniform-ratio must be in [0, 1]"),
+    (["--n", "4", "--source-folder", "/no/such/folder"], "is not a folder"),
 ])
 def test_bad_arguments_are_clear_errors_and_write_nothing(tmp_path, capsys, argv, message):
     out = tmp_path / "bad"
-    assert cli.run(["dataset", "lipstick", "--out", str(out), *argv, "--res", "16", "--samples", "1"]) == 2
+    assert cli.run(["dataset", "lipstick", "--out", str(out), "--res", "16", "--samples", "1", *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0]
     assert not out.exists()
