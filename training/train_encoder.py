@@ -63,23 +63,23 @@ def parameter_error(encoder: Encoder, loader, device: str) -> float:
 
 def train_encoder(data: str, imitator_run: str | None, out: str, config: EncoderConfig) -> RunFolder:
     """Train (or resume) an encoder run in `out`; the imitator is needed unless loss == 'graphics'."""
-    # 1. Run folder, resolved config, data.
-    run = RunFolder(out)
+    # 1. Data and the frozen imitator (the rendering loss) first: bad inputs leave no run folder behind.
     reader = DatasetReader(data)
+    device = config.device
+    use_rendering = config.loss in ("rendering", "both")
+    if use_rendering and not imitator_run:
+        raise VtoError("the rendering loss needs --imitator RUN (or --set loss=graphics)")
+    imitator = load_frozen_imitator(imitator_run, reader.spec, device) if use_rendering else None
+    run = RunFolder(out)
     run.save_config({**config_dict(config), "kind": "encoder", "data": str(data), "imitator": imitator_run,
                      "spec": reader.spec.to_dict()})
     torch.manual_seed(config.seed)
-    device = config.device
     train_positions, val_positions = split(reader, config.val_fraction)
     train_set = RenderDataset(reader, train_positions)
     batches = endless(make_loader(train_set, config.batch_size, config.seed, config.num_workers))
     val_loader = make_loader(RenderDataset(reader, val_positions), config.batch_size, 0, shuffle=False) if val_positions else None
 
-    # 2. Encoder, frozen imitator (the rendering loss), optimiser; resume.
-    use_rendering = config.loss in ("rendering", "both")
-    if use_rendering and not imitator_run:
-        raise VtoError("the rendering loss needs --imitator RUN (or --set loss=graphics)")
-    imitator = load_frozen_imitator(imitator_run, reader.spec, device) if use_rendering else None
+    # 2. Encoder, perceptual distance, optimiser; resume.
     perceptual = PerceptualDistance(config.perceptual, config.vgg_weights or None).to(device) if use_rendering else None
     encoder = Encoder(reader.spec.size, config.width, config.n_layers, pool_size=config.pool_size).to(device)
     optimiser = torch.optim.Adam(encoder.parameters(), lr=config.lr, betas=(config.beta1, config.beta2))

@@ -70,8 +70,8 @@ def evaluate(imitator: Imitator, loader, perceptual: PerceptualDistance, device:
 def train_imitator(data: str, out: str, config: ImitatorConfig) -> RunFolder:
     """Train (or resume) an imitator run in `out` on the dataset folder `data`."""
     # 1. Run folder, resolved config, data.
+    reader = DatasetReader(data)  # before the run folder exists: a bad --data leaves nothing behind
     run = RunFolder(out)
-    reader = DatasetReader(data)
     run.save_config({**config_dict(config), "kind": "imitator", "data": str(data), "spec": reader.spec.to_dict()})
     torch.manual_seed(config.seed)
     device = config.device

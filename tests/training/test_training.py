@@ -104,6 +104,7 @@ def test_encoder_with_rendering_loss_trains_through_the_imitator(lipstick_datase
     assert last["total"] == pytest.approx(last["graphics"] + 20 * last["rendering"], rel=1e-5)
     with pytest.raises(VtoError, match="needs --imitator"):
         train_encoder(str(lipstick_dataset), None, str(tmp_path / "none"), config)
+    assert not (tmp_path / "none").exists()
 
 
 def test_export_matches_torch_and_refuses_another_spec(lipstick_dataset, tmp_path):
@@ -148,3 +149,10 @@ def test_train_cli_smoke_and_errors(lipstick_dataset, tmp_path, capsys):
         assert "no CUDA device" in capsys.readouterr().err
     assert cli.run(["export", "--encoder", str(out), "--out", str(tmp_path / "e.onnx")]) == 2
     assert "export takes an encoder run" in capsys.readouterr().err
+
+
+def test_missing_data_is_a_clear_error_that_leaves_no_run_folder(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert cli.run(["train", "imitator", "--data", str(tmp_path / "nothing"), "--out", str(out)]) == 2
+    assert "is not a dataset" in capsys.readouterr().err
+    assert not out.exists()
