@@ -5,6 +5,11 @@ import os
 import tempfile
 
 import pytest
+from hypothesis import settings
+
+# A loaded CI machine must not fail a property test on wall-clock time.
+settings.register_profile("vto", deadline=None)
+settings.load_profile("vto")
 
 HAS_BPY = importlib.util.find_spec("bpy") is not None
 HAS_TORCH = importlib.util.find_spec("torch") is not None
