@@ -38,17 +38,15 @@ def strand_positions(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     polar = np.arccos(1 - rng.random(STRANDS) * (1 - np.cos(max_polar)))
     shell = HEAD_RADIUS * rng.uniform(1.03, 1.08)
     arc = np.linspace(0, 1, POINTS_PER_STRAND)[None, :] * length * rng.uniform(0.85, 1.15, (STRANDS, 1))
-    # Over the head a strand follows the shell, front strands swept aside to clear the face,
-    # then falls straight down.
+    # Front strands are combed back over the crown (the face stays clear); the others flow down the shell.
+    # Past 100 degrees from the crown every strand falls straight down.
     from_face = (azimuth + math.pi / 2 + math.pi) % (2 * math.pi) - math.pi  # 0 at the face
-    swept = -math.pi / 2 + np.sign(from_face) * np.maximum(np.abs(from_face), np.radians(80 + 10 * parting))
-    progress = np.minimum(arc / 0.6, 1.0)
-    phi = azimuth[:, None] + (swept - azimuth)[:, None] * progress
-    front = (np.abs(from_face) < np.radians(80))[:, None]
-    theta = polar[:, None] + np.maximum(arc - 0.6 * front, 0) / shell
+    front = (np.abs(from_face) < np.radians(80 + 10 * parting))[:, None]
+    signed = np.where(front, polar[:, None] - arc / shell, polar[:, None] + arc / shell)  # < 0: over the crown
+    phi = azimuth[:, None] + math.pi * (signed < 0)
     limit = np.radians(100)
-    over = np.minimum(theta, limit)
-    fall = np.maximum(arc - 0.6 * front - (limit - polar[:, None]) * shell, 0)
+    over = np.minimum(np.abs(signed), limit)
+    fall = np.maximum(arc - np.where(front, polar[:, None] + limit, limit - polar[:, None]) * shell, 0)
     x = shell * np.sin(over) * np.cos(phi)
     y = shell * np.sin(over) * np.sin(phi)
     z = shell * np.cos(over) - fall
