@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import time
@@ -18,8 +17,6 @@ from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler
 from vto_core.specs import RendererSpec, get_spec
-
-from .render import THREADS_ENV
 
 _SOURCE_STREAM = 7
 
@@ -212,7 +209,6 @@ def run_workers(job: DatasetJob, indices: range, workers: int, worker_command: l
     initially_done = len(wanted & finished_indices(out))
     progress = Progress(len(wanted), renders_per_sample(job))
     running: dict[int, subprocess.Popen] = {}
-    environment = {**os.environ, THREADS_ENV: str(max(1, (os.cpu_count() or 1) // workers))}
     try:
         while True:
             finished = wanted & finished_indices(out)
@@ -225,7 +221,7 @@ def run_workers(job: DatasetJob, indices: range, workers: int, worker_command: l
                 # A worker exits after restart_every samples (memory stays flat); start a fresh one while work is left.
                 if w not in running and any(i not in finished for i in worker_indices(indices, (w, workers))):
                     running[w] = subprocess.Popen(worker_command + ["--worker", f"{w}/{workers}", "--limit",
-                                                                    str(restart_every), "--quiet"], env=environment)
+                                                                    str(restart_every), "--quiet"])
             progress.update(len(finished), len(finished) - initially_done)
             if not running:
                 break

@@ -18,9 +18,6 @@ from vto_core.errors import VtoError
 _TMP_ROOT = "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else None
 
 
-THREADS_ENV = "VTO_RENDER_THREADS"  # set for dataset workers so W processes share the cores instead of fighting
-
-
 def configure_cycles(scene: bpy.types.Scene, res: int, samples: int, seed: int = 0) -> None:
     """Cycles CPU, fixed samples and seed, no denoiser, Standard view: deterministic small renders."""
     if not 8 <= res <= 4096:
@@ -44,10 +41,7 @@ def configure_cycles(scene: bpy.types.Scene, res: int, samples: int, seed: int =
     # (display white) took the PSNR between two seeds from 20.8 to 31.2 dB (128 px, 32 spp).
     cycles.sample_clamp_direct = 1.0
     cycles.sample_clamp_indirect = 1.0
-    threads = int(os.environ.get(THREADS_ENV, "0"))
-    scene.render.threads_mode = "FIXED" if threads > 0 else "AUTO"
-    if threads > 0:
-        scene.render.threads = threads
+    scene.render.threads_mode = "AUTO"
     scene.render.resolution_x = scene.render.resolution_y = res
     scene.render.resolution_percentage = 100
     scene.render.use_compositing = False
