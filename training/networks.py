@@ -15,6 +15,12 @@ def _check_count(owner, name, value, minimum):
     return int(value)
 
 
+def _model_args(owner, minimums=None, **counts):
+    """The checked constructor arguments as plain ints (minimum 1 unless `minimums` says otherwise)."""
+    minimums = minimums or {}
+    return {name: _check_count(owner, name, value, minimums.get(name, 1)) for name, value in counts.items()}
+
+
 def _check_images(owner, images, image_channels):
     """Raise VtoError unless images is (B, image_channels, H, W)."""
     if images.ndim != 4 or images.shape[1] != image_channels:
@@ -65,14 +71,9 @@ class Imitator(nn.Module):
 
     def __init__(self, n_params, width=64, n_down=2, n_res=6, image_channels=3):
         super().__init__()
-        n_params = _check_count("Imitator", "n_params", n_params, 1)
-        width = _check_count("Imitator", "width", width, 1)
-        n_down = _check_count("Imitator", "n_down", n_down, 0)
-        n_res = _check_count("Imitator", "n_res", n_res, 0)
-        image_channels = _check_count("Imitator", "image_channels", image_channels, 1)
-        self.model_args = dict(
-            n_params=n_params, width=width, n_down=n_down, n_res=n_res, image_channels=image_channels
-        )
+        self.model_args = _model_args("Imitator", {"n_down": 0, "n_res": 0}, n_params=n_params, width=width,
+                                      n_down=n_down, n_res=n_res, image_channels=image_channels)
+        n_params, width, n_down, n_res, image_channels = self.model_args.values()
         self.n_params = n_params
         self.n_down = n_down
         self.image_channels = image_channels
@@ -139,10 +140,8 @@ class Critic(nn.Module):
 
     def __init__(self, width=64, n_layers=4, image_channels=3):
         super().__init__()
-        width = _check_count("Critic", "width", width, 1)
-        n_layers = _check_count("Critic", "n_layers", n_layers, 1)
-        image_channels = _check_count("Critic", "image_channels", image_channels, 1)
-        self.model_args = dict(width=width, n_layers=n_layers, image_channels=image_channels)
+        self.model_args = _model_args("Critic", width=width, n_layers=n_layers, image_channels=image_channels)
+        width, n_layers, image_channels = self.model_args.values()
         self.n_layers = n_layers
         self.image_channels = image_channels
 
@@ -167,18 +166,9 @@ class Encoder(nn.Module):
 
     def __init__(self, n_params, width=32, n_layers=4, image_channels=3, pool_size=4):
         super().__init__()
-        n_params = _check_count("Encoder", "n_params", n_params, 1)
-        width = _check_count("Encoder", "width", width, 1)
-        n_layers = _check_count("Encoder", "n_layers", n_layers, 1)
-        image_channels = _check_count("Encoder", "image_channels", image_channels, 1)
-        pool_size = _check_count("Encoder", "pool_size", pool_size, 1)
-        self.model_args = dict(
-            n_params=n_params,
-            width=width,
-            n_layers=n_layers,
-            image_channels=image_channels,
-            pool_size=pool_size,
-        )
+        self.model_args = _model_args("Encoder", n_params=n_params, width=width, n_layers=n_layers,
+                                      image_channels=image_channels, pool_size=pool_size)
+        n_params, width, n_layers, image_channels, pool_size = self.model_args.values()
         self.n_layers = n_layers
         self.image_channels = image_channels
 
