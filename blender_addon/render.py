@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import os
+import shutil
 import sys
 import tempfile
 
@@ -66,9 +68,7 @@ class RenderFiles:
 
     def close(self) -> None:
         """Delete the folder and what is in it."""
-        for name in os.listdir(self.folder):
-            os.remove(os.path.join(self.folder, name))
-        os.rmdir(self.folder)
+        shutil.rmtree(self.folder, ignore_errors=True)
 
 
 _files: RenderFiles | None = None
@@ -78,6 +78,7 @@ def _render_path() -> str:
     global _files
     if _files is None:
         _files = RenderFiles()
+        atexit.register(_files.close)
     return _files.path
 
 

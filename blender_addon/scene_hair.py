@@ -27,8 +27,8 @@ HEAD_RADIUS = 1.0
 STRAND_RADIUS = 0.014  # thick enough that 3,000 strands hide the scalp at 64-256 px
 
 
-def strand_positions(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Procedural hairstyle: strand points (STRANDS * POINTS_PER_STRAND, 3) and root polar angles (STRANDS,)."""
+def strand_positions(rng: np.random.Generator) -> np.ndarray:
+    """Procedural hairstyle: strand points (STRANDS * POINTS_PER_STRAND, 3)."""
     length = rng.uniform(1.2, 2.6)
     parting = rng.uniform(-0.4, 0.4)
     azimuth = rng.uniform(0, 2 * math.pi, STRANDS)
@@ -52,7 +52,7 @@ def strand_positions(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     z = shell * np.cos(over) - fall
     jitter = rng.normal(0, 0.015, (STRANDS, POINTS_PER_STRAND, 3)) * np.linspace(0, 1, POINTS_PER_STRAND)[None, :, None]
     points = np.stack([x, y, z], -1) + jitter
-    return points.reshape(-1, 3).astype(np.float32), polar
+    return points.reshape(-1, 3).astype(np.float32)
 
 
 def _hair_material() -> bpy.types.Material:
@@ -117,7 +117,7 @@ def build_hair_scene() -> bpy.types.Scene:
 def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
     """Set hairstyle, hair and skin colour, lighting and camera from `source_seed`, in place."""
     rng = np.random.default_rng([int(source_seed), 0x4A12])
-    points, _ = strand_positions(rng)
+    points = strand_positions(rng)
     curves = scene.objects[HAIR_OBJECT].data
     curves.position_data.foreach_set("vector", points.reshape(-1))
     curves.update_tag()
