@@ -1,43 +1,114 @@
-"""Renderer speed and noise: ms per render at 64/128/256 px for several sample counts, PSNR between seeds."""
+"""Renderer speed, noise, clamp bias and parameter visibility at the dataset's default settings."""
 
 from __future__ import annotations
 
 import os
 
+import numpy as np
+
 from benchmarks.common import best_time, write_table
 from blender_addon.hair import render_hair_source, run_hair_stage
 from blender_addon.lipstick import render_lipstick
+from blender_addon.render import render_passes, to_display
+from blender_addon.scene_lips import build_lips_scene, lips_mask
+from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.metrics import psnr
-from vto_core.presets import load_presets
+from vto_core.presets import load_presets, preset_matrix
+from vto_core.sampling import ParamSampler
+from vto_core.specs import get_spec
+from vto_core.visibility import parameter_visibility
 
 SIZES = (64, 128, 256)
-SAMPLES = (4, 16, 64)
+SOURCES = (1, 2, 3, 4)
+# Before this round (benchmarks/results/render.md of 2026-11-21, same machine type): 16 spp, no denoiser,
+# additive gloss, every Cycles sample clamped at 1.
+BEFORE = {64: (111, 22.6), 128: (396, 22.8), 256: (1495, 23.0)}
+
+
+def speed_and_noise() -> list[list]:
+    """ms per render and seed-to-seed PSNR, both renderers, at the default samples."""
+    lip_values, hair_values = load_presets("lipstick")["Classic Red"], load_presets("hair")["Copper Red"]
+    rows = []
+    for res in SIZES:
+        lip_ms = 1000 * best_time(lambda: render_lipstick(lip_values, 1, res, DEFAULT_SAMPLES), 2)
+        lip_noise = np.mean([psnr(render_lipstick(lip_values, s, res, DEFAULT_SAMPLES, 0),
+                                  render_lipstick(lip_values, s, res, DEFAULT_SAMPLES, 1)) for s in SOURCES])
+        source_ms = 1000 * best_time(lambda: render_hair_source(1, res, DEFAULT_SAMPLES), 2)
+        hair_noise = np.mean([psnr(*(run_hair_stage(render_hair_source(s, res, DEFAULT_SAMPLES, seed), hair_values)
+                                     for seed in (0, 1))) for s in SOURCES])
+        rows.append([res, DEFAULT_SAMPLES, f"{lip_ms:.0f}", f"{lip_noise:.1f}", f"{BEFORE[res][0]} / {BEFORE[res][1]}",
+                     f"{source_ms:.0f}", f"{hair_noise:.1f}"])
+    return rows
+
+
+def clamp_bias() -> list[list]:
+    """Mean change of the lips a sample clamp causes, against an unclamped render (256 spp, no denoiser)."""
+    scene = build_lips_scene()
+    rows = []
+    values = load_presets("lipstick")["Cherry Gloss"]
+    for source in SOURCES:
+        mask = lips_mask(source, 64)
+        images = {}
+        for name, (direct, indirect) in {"none": (0.0, 0.0), "indirect 1 (now)": (0.0, 1.0),
+                                         "direct+indirect 1 (before)": (1.0, 1.0)}.items():
+            render_lipstick(values, source, 64, 1)  # sets the scene up for this source
+            scene.cycles.samples, scene.cycles.use_denoising = 256, False
+            scene.cycles.sample_clamp_direct, scene.cycles.sample_clamp_indirect = direct, indirect
+            images[name] = to_display(render_passes(scene)["Combined"][..., :3])
+        hdri = scene.world.node_tree.nodes["HDRI"].image.name.removeprefix("VTO HDRI ")
+        rows.append([source, hdri] + [f"{255 * (images[k][mask] - images['none'][mask]).mean():+.1f}"
+                                      for k in ("indirect 1 (now)", "direct+indirect 1 (before)")])
+    return rows
+
+
+def visibility() -> list[list]:
+    """visibility_ratio of every parameter: the test's look, and the mean over four sampled looks."""
+    rows = []
+    lip_spec, hair_spec = get_spec("lipstick"), get_spec("hair")
+    sampler = ParamSampler(lip_spec, preset_matrix(lip_spec, load_presets("lipstick")), 0.5, seed=2024)
+    looks = [lip_spec.values(sampler.sample(i)) for i in range(4)]
+    for param in lip_spec.params:
+        extra = {"sparkle_density": 0.5, "sparkle_intensity": 0.75} if param.name.startswith("sparkle") else {}
+        ratios = []
+        for index, look in enumerate([{"opacity": 1.0}] + looks):
+            source = 1 + index
+
+            def render(values, seed, source=source):
+                return render_lipstick(values, source, 64, DEFAULT_SAMPLES, seed)
+            ratios.append(parameter_visibility(render, param, {**look, **extra}, mask=lips_mask(source, 64)))
+        rows.append(["lipstick", param.name, "yes" if param.name in lip_spec.modelled else "no",
+                     f"{ratios[0]:.2f}", f"{np.mean(ratios[1:]):.2f}"])
+    sources = {seed: render_hair_source(1, 64, DEFAULT_SAMPLES, seed) for seed in (0, 1)}
+    for param in hair_spec.params:
+        ratio = parameter_visibility(lambda v, s: run_hair_stage(sources[s], v), param, hair_spec.defaults(),
+                                     mask=sources[0].mask)
+        rows.append(["hair", param.name, "yes" if param.name in hair_spec.modelled else "no", f"{ratio:.2f}", ""])
+    return rows
 
 
 def main() -> None:
     """Measure both renderers; writes benchmarks/results/render.md."""
-    lip_values = load_presets("lipstick")["Classic Red"]
-    hair_values = load_presets("hair")["Copper Red"]
-    rows = []
-    for res in SIZES:
-        for samples in SAMPLES:
-            lip_ms = 1000 * best_time(lambda: render_lipstick(lip_values, 1, res, samples), 2)
-            lip_noise = psnr(render_lipstick(lip_values, 1, res, samples, 0), render_lipstick(lip_values, 1, res, samples, 1))
-            source_ms = 1000 * best_time(lambda: render_hair_source(1, res, samples), 2)
-            sources = [render_hair_source(1, res, samples, seed) for seed in (0, 1)]
-            stage_ms = 1000 * best_time(lambda: run_hair_stage(sources[0], hair_values), 3)
-            hair_noise = psnr(*(run_hair_stage(s, hair_values) for s in sources))
-            rows.append([res, samples, f"{lip_ms:.0f}", f"{lip_noise:.1f}", f"{source_ms:.0f}", f"{stage_ms:.1f}",
-                         f"{hair_noise:.1f}"])
-    write_table(
-        "render", "Renderer speed and render noise (Cycles CPU, 2 cores)",
-        ["px", "samples", "lipstick ms", "lipstick PSNR seed0/seed1 dB", "hair source ms", "hair stage ms (2 compositor passes)",
-         "hair PSNR seed0/seed1 dB"],
-        rows,
-        f"Reproduce: `make bench` or `.venv/bin/python -m benchmarks.bench_render`. Threads: {os.cpu_count()}. "
-        "PSNR between renders with Cycles seeds 0 and 1 measures render noise: higher is cleaner. "
-        "The hair stage itself is deterministic; its noise comes from the Cycles source render.",
-    )
+    sections = [
+        ("Speed and render noise", ["px", "spp", "lipstick ms", "lipstick PSNR seed 0/1 dB",
+                                    "lipstick before: ms / dB (16 spp, no denoiser)", "hair source ms",
+                                    "hair PSNR seed 0/1 dB"], speed_and_noise()),
+        ("Sample-clamp bias on the lips (mean, 1/255 units; Cherry Gloss, 64 px, 256 spp)",
+         ["source", "HDRI", "clamp indirect at 1 (now)", "clamp all at 1 (before)"], clamp_bias()),
+        ("Parameter visibility: 25th->75th percentile change / seed noise, 4x4 blocks on the lips or hair, 64 px",
+         ["renderer", "parameter", "modelled by default", "test look (defaults, opacity 1)", "mean of 4 sampled looks"],
+         visibility()),
+    ]
+    notes = (f"Reproduce: `.venv/bin/python -m benchmarks.bench_render`. Threads: {os.cpu_count()}. Renders are "
+             f"{DEFAULT_SAMPLES} spp with OpenImageDenoise (RGB+albedo+normal, fast prefilter); PSNR averaged over "
+             f"sources {SOURCES}. A visibility ratio of 1 means the change is lost in noise; the bar is 3.")
+    header, *rest = sections
+    write_table("render", "Renderers: speed, noise, clamp bias, visibility (Cycles CPU)", header[1], header[2],
+                notes + "\n\n" + "\n\n".join(_markdown(title, cols, rows) for title, cols, rows in rest))
+
+
+def _markdown(title: str, header: list[str], rows: list[list]) -> str:
+    lines = [f"## {title}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return "\n".join(lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows])
 
 
 if __name__ == "__main__":

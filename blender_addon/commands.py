@@ -6,13 +6,14 @@ import argparse
 import json
 
 from vto_core.cli import ArgumentParser
+from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.imageio import write_image
 from vto_core.params_io import parse_params
 from vto_core.specs import get_spec
 
 
-def render(renderer: str, values: dict[str, float], source, res: int = 64, samples: int = 16, seed: int = 0):
+def render(renderer: str, values: dict[str, float], source, res: int = 64, samples: int = DEFAULT_SAMPLES, seed: int = 0):
     """R(X, g) for either renderer: (res, res, 3) display-sRGB float32; values are checked strictly."""
     values = get_spec(renderer).check_values(values)
     if renderer == "lipstick":
@@ -33,7 +34,7 @@ def cmd_render(argv: list[str]) -> int:
     parser.add_argument("--params", default=None, help="JSON object, a JSON file, or preset:NAME")
     parser.add_argument("--source", default="0", help="source seed, or (hair) a photo with <name>_mask beside it")
     parser.add_argument("--res", type=int, default=64)
-    parser.add_argument("--samples", type=int, default=16)
+    parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES)
     parser.add_argument("--seed", type=int, default=0, help="Cycles seed")
     parser.add_argument("--out", required=True, help="image file (.png, .exr, .jpg, .tif)")
     args = parser.parse_args(argv)
@@ -122,7 +123,7 @@ def cmd_dataset(argv: list[str]) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--shard", default=None, help="i/K; default from SLURM_ARRAY_TASK_ID/COUNT or JOB_COMPLETION_INDEX")
     parser.add_argument("--res", type=int, default=64)
-    parser.add_argument("--samples", type=int, default=16)
+    parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES)
     parser.add_argument("--params", default=None, help="comma-separated parameters to model (default: all)")
     parser.add_argument("--sensitivity", action="store_true", help="also render R(X, g'_j) for each modelled j")
     parser.add_argument("--uniform-ratio", type=float, default=0.5, help="share of uniform draws vs the preset fit")

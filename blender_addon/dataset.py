@@ -12,7 +12,8 @@ import bpy
 import numpy as np
 
 import vto_core
-from vto_core.dataset import FORMAT_VERSION, SampleWriter, finished_indices, remove_stale_temporaries, write_manifest
+from vto_core.dataset import (DEFAULT_SAMPLES, FORMAT_VERSION, SampleWriter, finished_indices, remove_stale_temporaries,
+                              write_manifest)
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler
@@ -30,7 +31,7 @@ class DatasetJob:
     n: int
     seed: int = 0
     res: int = 64
-    samples: int = 16
+    samples: int = DEFAULT_SAMPLES
     params: list[str] | None = None
     sensitivity: bool = False
     uniform_ratio: float = 0.5

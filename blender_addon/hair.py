@@ -10,6 +10,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.hair import fit_hair_match, hair_gradient
 from vto_core.imageio import read_image, resize
@@ -32,7 +33,7 @@ class HairSource:
     mask: np.ndarray
 
 
-def render_hair_source(source_seed: int, res: int = 64, samples: int = 16, seed: int = 0) -> HairSource:
+def render_hair_source(source_seed: int, res: int = 64, samples: int = DEFAULT_SAMPLES, seed: int = 0) -> HairSource:
     """Render the default hair scene for `source_seed`; the mask is the hair object's index pass."""
     scene = build_hair_scene()
     if scene.get("vto_source_seed") != int(source_seed):
@@ -166,7 +167,7 @@ def resolve_hair_source(source, res: int, samples: int, seed: int) -> HairSource
     return load_photo_source(source, res)
 
 
-def render_hair(values: dict[str, float], source=0, res: int = 64, samples: int = 16, seed: int = 0) -> np.ndarray:
+def render_hair(values: dict[str, float], source=0, res: int = 64, samples: int = DEFAULT_SAMPLES, seed: int = 0) -> np.ndarray:
     """R(X, g) for hair: (res, res, 3) display-sRGB float32."""
     return run_hair_stage(resolve_hair_source(source, res, samples, seed), values)
 

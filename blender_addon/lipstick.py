@@ -5,6 +5,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
+from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.specs import get_spec
 
@@ -37,7 +38,7 @@ def set_lipstick_values(scene: bpy.types.Scene, values: dict[str, float]) -> dic
     return full
 
 
-def render_lipstick(values: dict[str, float], source: int = 0, res: int = 64, samples: int = 16,
+def render_lipstick(values: dict[str, float], source: int = 0, res: int = 64, samples: int = DEFAULT_SAMPLES,
                     seed: int = 0, scene: bpy.types.Scene | None = None) -> np.ndarray:
     """R(X, g): display-sRGB image (res, res, 3) float32 of the lips `source` wearing `values`.
 

@@ -9,7 +9,7 @@ from collections.abc import Iterable
 from vto_core.specs import ParamSpec
 
 # Bumped whenever a builder changes what it builds, so older groups in saved files are rebuilt.
-BUILDER_VERSION = 2
+BUILDER_VERSION = 3
 VERSION_KEY = "vto_builder_version"
 SOCKET_MAX = 3.0e38  # sockets are float32: the top of an unbounded range
 

@@ -21,6 +21,7 @@ SKIN_OBJECT = "VTO Skin"
 LIPS_MATERIAL = "VTO Lips Material"
 SKIN_MATERIAL = "VTO Skin Material"
 MAKEUP_NODE = "VTO Lipstick"
+LIPS_PASS_INDEX = 1  # the lips' object index: the IndexOB pass of a render is the lips mask
 
 LIP_COLUMNS, LIP_ROWS = 48, 12  # per lip: across the mouth, outer contour -> mouth line
 SKIN_COLUMNS, SKIN_ROWS = 80, 60
@@ -146,6 +147,7 @@ def build_lips_scene() -> bpy.types.Scene:
     lips = _mesh_object(scene, LIPS_OBJECT, lip_vertices(shape),
                         _grid_faces(LIP_COLUMNS, LIP_ROWS) + _grid_faces(LIP_COLUMNS, LIP_ROWS, (LIP_COLUMNS + 1) * (LIP_ROWS + 1)),
                         _lips_material())
+    lips.pass_index = LIPS_PASS_INDEX
     u = np.linspace(0, 1, LIP_COLUMNS + 1)
     v = np.linspace(0, 1, LIP_ROWS + 1)
     uv_per_vertex = np.tile(np.stack(np.meshgrid(u, v), -1).reshape(-1, 2), (2, 1))
@@ -160,6 +162,7 @@ def build_lips_scene() -> bpy.types.Scene:
     camera.data.lens = 62.0
     scene.collection.objects.link(camera)
     scene.camera = camera
+    scene.view_layers[0].use_pass_object_index = True
     build_hdri_world(scene)
     apply_source(scene, 0)
     return scene
@@ -192,3 +195,15 @@ def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
     camera.location = (rng.normal(0, 0.08), rng.normal(-0.05, 0.08), rng.uniform(3.6, 4.4))
     camera.rotation_euler = (rng.normal(0, 0.02), rng.normal(0, 0.02), rng.normal(0, 0.04))
     scene["vto_source_seed"] = int(source_seed)
+
+
+def lips_mask(source_seed: int, res: int) -> np.ndarray:
+    """Where the lips are in a res x res render of the default scene with `source_seed`: (res, res) bool."""
+    from .render import configure_cycles, render_passes
+
+    scene = build_lips_scene()
+    if scene.get("vto_source_seed") != int(source_seed):
+        apply_source(scene, int(source_seed))
+    configure_cycles(scene, res, 1, 0)
+    scene.cycles.use_denoising = False
+    return np.abs(render_passes(scene)["IndexOB"][..., 0] - LIPS_PASS_INDEX) < 0.5

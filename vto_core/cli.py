@@ -20,6 +20,10 @@ COMMANDS = {
     "dataset": ("blender_addon.commands", "cmd_dataset", "render a training dataset, sharded and resumable (needs bpy)"),
     "train": ("training.cli", "cmd_train", "train the imitator or the encoder (needs torch)"),
     "export": ("training.cli", "cmd_export", "export an encoder run to ONNX"),
+    "scene-params": ("blender_addon.scene_params", "cmd_scene_params",
+                     "list which lipstick group inputs visibly change a user's scene (needs bpy)"),
+    "match": ("blender_addon.match", "cmd_match", "estimate a renderer's parameters from a reference image"),
+    "eval": ("training.cli", "cmd_eval", "the paper's transfer experiment on an encoder (needs bpy and torch)"),
     "demo": ("blender_addon.commands", "cmd_demo", "render expert presets on the embedded default scenes"),
 }
 
@@ -47,6 +51,7 @@ def cmd_spec(argv: list[str]) -> int:
     spec = get_spec(args.renderer, args.params)
     out = spec.to_dict()
     out["vector_order"] = list(spec.modelled)
+    out["left_out"] = spec.left_out()
     print(json.dumps(out, indent=1))
     return 0
 

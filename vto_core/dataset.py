@@ -30,6 +30,10 @@ from .specs import RendererSpec
 FORMAT_VERSION = 1
 SAMPLES_DIR = "samples"
 TMP_PREFIX = ".tmp-"
+DEFAULT_RES = 64
+# Cycles samples per pixel; renders are denoised (OpenImageDenoise), which at 64 px and 8 spp is cleaner
+# (seed-to-seed PSNR ~35 dB) and cheaper than 16 spp without it (~23 dB): benchmarks/results/render.md.
+DEFAULT_SAMPLES = 16
 
 
 def sample_name(index: int) -> str:

@@ -111,3 +111,34 @@ def ssim(a, b, data_range=1.0):
         (mean_a**2 + mean_b**2 + c1) * (variance_a + variance_b + c2)
     )
     return float(ssim_map.mean(axis=(0, 1)).mean())
+
+
+def block_means(image, block=4):
+    """(H, W, C) -> (H//block, W//block, C) block averages (edge rows/columns that do not fill a block are dropped)."""
+    image = np.asarray(image, dtype=np.float64)
+    if image.ndim == 2:
+        image = image[..., np.newaxis]
+    rows, columns = image.shape[0] // block, image.shape[1] // block
+    if rows == 0 or columns == 0:
+        raise VtoError(f"block_means: image {image.shape[:2]} is smaller than one {block}x{block} block")
+    cropped = image[: rows * block, : columns * block]
+    return cropped.reshape(rows, block, columns, block, -1).mean(axis=(1, 3))
+
+
+def visibility_ratio(low_seed0, high_seed1, low_seed1, block=4, mask=None):
+    """How far a parameter change stands above render noise, on block means of (H, W, C) renders.
+
+    change = RMS(B(R(high; seed 1)) - B(R(low; seed 0))), noise = RMS(B(R(low; seed 1)) - B(R(low; seed 0))):
+    both are differences of two independently seeded renders, so a parameter the image cannot show
+    gives about 1, and a ratio r means the change alone is sqrt(r^2 - 1) times the noise. With `mask` (H, W),
+    only blocks at least half inside it count (the lips or the hair, not the backdrop's noise).
+    """
+    base = block_means(low_seed0, block)
+    change = np.square(block_means(high_seed1, block) - base)
+    noise = np.square(block_means(low_seed1, block) - base)
+    if mask is not None:
+        inside = block_means(np.asarray(mask, dtype=np.float64), block)[..., 0] >= 0.5
+        if not inside.any():
+            raise VtoError("visibility_ratio: the mask covers no block")
+        change, noise = change[inside], noise[inside]
+    return float(np.sqrt(change.mean()) / max(np.sqrt(noise.mean()), 1e-12))

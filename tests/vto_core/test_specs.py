@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, strategies as st
 
 from vto_core.errors import VtoError
-from vto_core.specs import RENDERERS, UNIT_CAP, RendererSpec, get_spec
+from vto_core.specs import RENDERERS, RendererSpec, get_spec
 
 ALL_PARAMS = [(r, p) for r, spec in RENDERERS.items() for p in spec.params]
 IDS = [f"{r}.{p.name}" for r, p in ALL_PARAMS]
@@ -18,8 +18,11 @@ IDS = [f"{r}.{p.name}" for r, p in ALL_PARAMS]
 
 def test_builtin_sizes_match_the_paper():
     lipstick, hair = get_spec("lipstick"), get_spec("hair")
-    assert lipstick.size == 17
-    assert lipstick.modelled[:7] == ("opacity", "red", "green", "blue", "gloss", "gloss_roughness", "reflection")
+    assert len(lipstick.params) == 17
+    assert lipstick.modelled == ("opacity", "red", "green", "blue", "gloss", "gloss_roughness", "reflection")
+    assert set(lipstick.left_out()) == {p.name for p in lipstick.params[7:]}
+    assert all("3x above render noise" in why for why in lipstick.left_out().values())
+    assert get_spec("lipstick", [p.name for p in lipstick.params]).size == 17  # still selectable by name
     assert hair.size == 9
     assert {p.group for p in hair.params} == {"swatch", "non-swatch"}
     assert [p.name for p in hair.params if p.group == "swatch"] == [
@@ -54,24 +57,26 @@ def test_both_range_ends_round_trip_finitely(renderer, param):
     assert math.isfinite(param.from_unit(0.0)) and math.isfinite(param.from_unit(1.0))
 
 
-@pytest.mark.parametrize("huge", [1e30, sys.float_info.max, math.inf])
-def test_unbounded_gloss_saturates_without_overflow(huge):
+@pytest.mark.parametrize("huge", [8.0, 100.0, 1e30, sys.float_info.max, math.inf])
+def test_unbounded_gloss_encodes_up_to_its_sampling_top(huge):
     gloss = get_spec("lipstick").by_name["gloss"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         unit = gloss.to_unit(huge)
-    assert unit == pytest.approx(1.0) and math.isfinite(unit)
-    back = gloss.from_unit(unit)
-    assert math.isfinite(back) and back == pytest.approx(gloss.scale * UNIT_CAP / (1 - UNIT_CAP), rel=1e-6)
-    assert np.isfinite(np.float32(back))  # it must also fit a Blender float socket
+    assert unit == 1.0
+    assert gloss.from_unit(unit) == gloss.unit_high == 8.0  # a decoded estimate is never absurd
+    assert gloss.from_unit(5.0) == 8.0 and gloss.sample_high == 8.0
 
 
 def test_saturating_map_values():
+    """u = s(g) / s(8) with s(g) = g / (g + 1): resolution where the presets are, 8 (twice the glossiest) at 1."""
     gloss = get_spec("lipstick").by_name["gloss"]
     assert gloss.to_unit(0.0) == 0.0
-    assert gloss.to_unit(gloss.scale) == pytest.approx(0.5)
-    assert gloss.to_unit(3 * gloss.scale) == pytest.approx(0.75)
-    assert gloss.from_unit(0.75) == pytest.approx(3 * gloss.scale)
+    assert gloss.to_unit(1.0) == pytest.approx(0.5 / (8 / 9))
+    assert gloss.from_unit(0.75) == pytest.approx(2.0)
+    assert gloss.from_unit(0.25) == pytest.approx(2 / 7)
+    values = [gloss.from_unit(u) for u in np.linspace(0, 1, 101)]
+    assert np.all(np.diff(values) > 0)
 
 
 def test_out_of_range_is_clamped_with_a_warning_not_wrapped():
@@ -110,9 +115,9 @@ def test_unit_round_trip_hair(unit):
     assert np.allclose(back, expected, atol=1e-5) or abs(abs(back[hue] - expected[hue]) - 1) < 1e-5
 
 
-@given(st.lists(st.floats(0, 0.999), min_size=17, max_size=17))
+@given(st.lists(st.floats(0, 1), min_size=17, max_size=17))
 def test_unit_round_trip_lipstick(unit):
-    spec = get_spec("lipstick")
+    spec = get_spec("lipstick", [p.name for p in get_spec("lipstick").params])
     assert np.allclose(spec.normalise(spec.denormalise(np.array(unit))), unit, atol=1e-5)
 
 

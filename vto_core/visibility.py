@@ -1,0 +1,28 @@
+"""Which parameters a render can show: a quartile change of one parameter against render noise."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from .metrics import visibility_ratio
+from .specs import ParamSpec
+
+VISIBLE_RATIO = 3.0  # the change must stand this far above seed-to-seed noise (4x4 block means)
+
+
+def quartile_values(param: ParamSpec) -> tuple[float, float]:
+    """The 25th and 75th percentile of a parameter's sampling range (unit space 0.25 and 0.75)."""
+    return param.from_unit(0.25), param.from_unit(0.75)
+
+
+def parameter_visibility(render: Callable[[dict[str, float], int], np.ndarray], param: ParamSpec,
+                         base: dict[str, float], block: int = 4, mask: np.ndarray | None = None) -> float:
+    """visibility_ratio of moving `param` from its 25th to its 75th percentile on top of `base`.
+
+    render(values, cycles_seed) -> (H, W, 3) image; three renders: low on seeds 0 and 1, high on seed 1.
+    """
+    low, high = quartile_values(param)
+    low_values, high_values = {**base, param.name: low}, {**base, param.name: high}
+    return visibility_ratio(render(low_values, 0), render(high_values, 1), render(low_values, 1), block, mask)
