@@ -16,19 +16,56 @@ from vto_core.metrics import psnr
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler
 from vto_core.specs import get_spec
-from vto_core.visibility import parameter_visibility
+from vto_core.visibility import measurement_look, parameter_visibility
 
 SIZES = (64, 128, 256)
 SOURCES = (1, 2, 3, 4)
-# Before this round (benchmarks/results/render.md of 2026-11-21, same machine type): 16 spp, no denoiser,
-# additive gloss, every Cycles sample clamped at 1.
-BEFORE = {64: (111, 22.6), 128: (396, 22.8), 256: (1495, 23.0)}
+# The renderer before the energy-conserving layer, env lights and denoiser: 16 spp, additive gloss, every
+# sample clamped at 1. Measured in the same run from a git worktree of that commit.
+BEFORE_REV = "fd609b2"
+BEFORE_SCRIPT = """
+import json, sys, time
+import numpy as np
+from blender_addon.lipstick import render_lipstick
+from vto_core.metrics import psnr
+from vto_core.presets import load_presets
+values = load_presets("lipstick")["Classic Red"]
+out = {}
+for res in %r:
+    render_lipstick(values, 1, res, 16)
+    times = []
+    for seed in range(3):
+        start = time.perf_counter(); render_lipstick(values, 1, res, 16, seed); times.append(time.perf_counter() - start)
+    noise = np.mean([psnr(render_lipstick(values, s, res, 16, 0), render_lipstick(values, s, res, 16, 1)) for s in %r])
+    out[res] = (1000 * min(times), float(noise))
+print("RESULT", json.dumps(out))
+"""
+
+
+def before() -> dict[int, tuple[float, float]]:
+    """{res: (ms, PSNR dB)} of the old lipstick renderer (BEFORE_REV), in a subprocess on a git worktree."""
+    import json
+    import subprocess
+    import sys
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        tree = os.path.join(folder, "before")
+        subprocess.run(["git", "worktree", "add", "--detach", "-q", tree, BEFORE_REV], check=True)
+        try:
+            done = subprocess.run([sys.executable, "-c", BEFORE_SCRIPT % (SIZES, SOURCES)], cwd=tree, check=True,
+                                  capture_output=True, text=True)
+        finally:
+            subprocess.run(["git", "worktree", "remove", "--force", tree], check=True)
+    line = next(l for l in done.stdout.splitlines() if l.startswith("RESULT "))
+    return {int(k): tuple(v) for k, v in json.loads(line[len("RESULT "):]).items()}
 
 
 def speed_and_noise() -> list[list]:
     """ms per render and seed-to-seed PSNR, both renderers, at the default samples."""
     lip_values, hair_values = load_presets("lipstick")["Classic Red"], load_presets("hair")["Copper Red"]
     rows = []
+    old = before()
     for res in SIZES:
         lip_ms = 1000 * best_time(lambda: render_lipstick(lip_values, 1, res, DEFAULT_SAMPLES), 2)
         lip_noise = np.mean([psnr(render_lipstick(lip_values, s, res, DEFAULT_SAMPLES, 0),
@@ -36,7 +73,7 @@ def speed_and_noise() -> list[list]:
         source_ms = 1000 * best_time(lambda: render_hair_source(1, res, DEFAULT_SAMPLES), 2)
         hair_noise = np.mean([psnr(*(run_hair_stage(render_hair_source(s, res, DEFAULT_SAMPLES, seed), hair_values)
                                      for seed in (0, 1))) for s in SOURCES])
-        rows.append([res, DEFAULT_SAMPLES, f"{lip_ms:.0f}", f"{lip_noise:.1f}", f"{BEFORE[res][0]} / {BEFORE[res][1]}",
+        rows.append([res, DEFAULT_SAMPLES, f"{lip_ms:.0f}", f"{lip_noise:.1f}", f"{old[res][0]:.0f} / {old[res][1]:.1f}",
                      f"{source_ms:.0f}", f"{hair_noise:.1f}"])
     return rows
 
@@ -68,9 +105,10 @@ def visibility() -> list[list]:
     sampler = ParamSampler(lip_spec, preset_matrix(lip_spec, load_presets("lipstick")), 0.5, seed=2024)
     looks = [lip_spec.values(sampler.sample(i)) for i in range(4)]
     for param in lip_spec.params:
-        extra = {"sparkle_density": 0.5, "sparkle_intensity": 0.75} if param.name.startswith("sparkle") else {}
+        test_look = measurement_look("lipstick", param.name)
+        extra = {k: v for k, v in test_look.items() if k != "opacity"}  # the layer the parameter acts on
         ratios = []
-        for index, look in enumerate([{"opacity": 1.0}] + looks):
+        for index, look in enumerate([test_look] + looks):
             source = 1 + index
 
             def render(values, seed, source=source):
@@ -80,8 +118,8 @@ def visibility() -> list[list]:
                      f"{ratios[0]:.2f}", f"{np.mean(ratios[1:]):.2f}"])
     sources = {seed: render_hair_source(1, 64, DEFAULT_SAMPLES, seed) for seed in (0, 1)}
     for param in hair_spec.params:
-        ratio = parameter_visibility(lambda v, s: run_hair_stage(sources[s], v), param, hair_spec.defaults(),
-                                     mask=sources[0].mask)
+        ratio = parameter_visibility(lambda v, s: run_hair_stage(sources[s], v), param,
+                                     measurement_look("hair", param.name), mask=sources[0].mask)
         rows.append(["hair", param.name, "yes" if param.name in hair_spec.modelled else "no", f"{ratio:.2f}", ""])
     return rows
 
@@ -90,12 +128,12 @@ def main() -> None:
     """Measure both renderers; writes benchmarks/results/render.md."""
     sections = [
         ("Speed and render noise", ["px", "spp", "lipstick ms", "lipstick PSNR seed 0/1 dB",
-                                    "lipstick before: ms / dB (16 spp, no denoiser)", "hair source ms",
+                                    f"lipstick before ({BEFORE_REV}, 16 spp, no denoiser): ms / dB", "hair source ms",
                                     "hair PSNR seed 0/1 dB"], speed_and_noise()),
         ("Sample-clamp bias on the lips (mean, 1/255 units; Cherry Gloss, 64 px, 256 spp)",
          ["source", "HDRI", "clamp indirect at 1 (now)", "clamp all at 1 (before)"], clamp_bias()),
         ("Parameter visibility: 25th->75th percentile change / seed noise, 4x4 blocks on the lips or hair, 64 px",
-         ["renderer", "parameter", "modelled by default", "test look (defaults, opacity 1)", "mean of 4 sampled looks"],
+         ["renderer", "parameter", "modelled by default", "test look (defaults, opacity 1, + the layer it acts on)", "mean of 4 sampled looks"],
          visibility()),
     ]
     notes = (f"Reproduce: `.venv/bin/python -m benchmarks.bench_render`. Threads: {os.cpu_count()}. Renders are "

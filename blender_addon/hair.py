@@ -12,11 +12,11 @@ import numpy as np
 
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
-from vto_core.hair import fit_hair_match, hair_gradient
+from vto_core.hair import blur_radius, fit_hair_match, hair_gradient
 from vto_core.imageio import read_image, resize
 from vto_core.specs import get_spec
 
-from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, set_lut, swatch_group
+from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, set_blur_radius, set_lut, swatch_group
 from .render import configure_cycles, render_passes, to_display
 from .scene_hair import HAIR_PASS_INDEX, apply_source, build_hair_scene
 
@@ -156,6 +156,7 @@ def run_hair_stage(source: HairSource, values: dict[str, float], swatch: np.ndar
     recoloured = _run_pass(SWATCH_GROUP, {"VTO Hair Swatch Image": swatch}, values)
     match = fit_hair_match(source.rgb, source.mask, np.clip(recoloured, 0, 1))
     set_lut(color_group(), match.gray_lut, match.channel_luts)
+    set_blur_radius(color_group(), blur_radius(source.rgb.shape[1]))
     stage_inputs = dict(zip(STAGE_IMAGES[:3], (source.rgb, source.mask, hair_gradient(source.mask))))
     return np.clip(_run_pass(COLOR_GROUP, stage_inputs, values), 0, 1).astype(np.float32)
 

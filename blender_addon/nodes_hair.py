@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import bpy
 
+from vto_core.hair import BLEND_OFFSET, BLEND_RAMP, BLEND_SCALE, GLOBAL_CONTRAST_GAIN, LOCAL_CONTRAST_GAIN
 from vto_core.specs import get_spec
 
 from .node_utils import Builder, add_spec_inputs, get_or_create_group
@@ -11,6 +12,7 @@ from .node_utils import Builder, add_spec_inputs, get_or_create_group
 SWATCH_GROUP = "VTO Hair Swatch"
 COLOR_GROUP = "VTO Hair Color"
 LUT_NODE = "Histogram LUT"
+BLUR_NODE = "Local Contrast Blur"
 COMPOSITOR_TREE = "CompositorNodeTree"
 
 
@@ -64,19 +66,29 @@ def _build_color(group: bpy.types.NodeTree) -> None:
     lut.name = LUT_NODE
     b.link(gin["Image"], lut.inputs["Image"])
 
-    def shine(x):
-        y = b.math("MULTIPLY", x, 1.0, clamp=True)
+    # Shine: global contrast (S-curve) plus local contrast (unsharp mask; the blur's size is set per render).
+    blur = b.node("Blur", label="Local Contrast Blur (size set per render)", filter_type="GAUSS")
+    blur.name = BLUR_NODE
+    b.link(lut.outputs[0], blur.inputs["Image"])
+    curved, blurred = b.node("SeparateColor"), b.node("SeparateColor")
+    b.link(lut.outputs[0], curved.inputs[0])
+    b.link(blur.outputs[0], blurred.inputs[0])
+    shined = b.node("CombineColor")
+    for index in range(3):
+        y = b.math("MULTIPLY", curved.outputs[index], 1.0, clamp=True)
         smooth = b.math("MULTIPLY", b.math("MULTIPLY", y, y), b.math("SUBTRACT", 3.0, b.math("MULTIPLY", y, 2.0)))
-        return b.math("ADD", y, b.math("MULTIPLY", b.math("SUBTRACT", smooth, y), gin["Shine"]))
-
-    shined = _per_channel(b, lut.outputs[0], shine)
-    weight = b.math("MULTIPLY", b.math("SUBTRACT", gin["Gradient"], gin["Blend"]), 2.0, clamp=True)
+        curve = b.math("MULTIPLY", b.math("SUBTRACT", smooth, y), GLOBAL_CONTRAST_GAIN)
+        local = b.math("MULTIPLY", b.math("SUBTRACT", y, blurred.outputs[index]), LOCAL_CONTRAST_GAIN)
+        boost = b.math("MULTIPLY", b.math("ADD", curve, local), gin["Shine"])
+        b.link(b.math("ADD", y, boost, clamp=True), shined.inputs[index])
+    offset = b.math("ADD", b.math("MULTIPLY", gin["Blend"], BLEND_SCALE), BLEND_OFFSET)
+    weight = b.math("MULTIPLY", b.math("SUBTRACT", gin["Gradient"], offset), BLEND_RAMP, clamp=True)
     mask = b.math("MULTIPLY", gin["Mask"], 1.0, clamp=True)
     alpha = b.math("MULTIPLY", b.math("MULTIPLY", mask, weight), gin["Intensity"])
     mix = b.node("MixRGB", label="Intensity")
     b.link(alpha, mix.inputs[0])
     b.link(gin["Image"], mix.inputs[1])
-    b.link(shined, mix.inputs[2])
+    b.link(shined.outputs[0], mix.inputs[2])
     b.link(mix.outputs[0], b.node("NodeGroupOutput").inputs[0])
 
 
@@ -88,6 +100,11 @@ def swatch_group() -> bpy.types.NodeTree:
 def color_group() -> bpy.types.NodeTree:
     """Get or create the pass-2 compositor group (LUT, shine, faded look, intensity)."""
     return get_or_create_group(COLOR_GROUP, COMPOSITOR_TREE, _build_color)
+
+
+def set_blur_radius(group: bpy.types.NodeTree, radius: int) -> None:
+    """Set the local-contrast blur's radius in pixels (vto_core.hair.blur_radius of the image width)."""
+    group.nodes[BLUR_NODE].inputs["Size"].default_value = (radius, radius)
 
 
 def set_lut(group: bpy.types.NodeTree, gray_lut, channel_luts) -> None:

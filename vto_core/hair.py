@@ -10,7 +10,16 @@ from .histogram import HistogramMatch, fit_histogram_match
 
 SWATCH_PARAMS = ("brightness", "contrast", "exposure", "gamma", "hue", "saturation")
 LUT_POINTS = 64
-BLEND_RAMP = 2.0  # the faded look goes from none to full over half the hair's height
+# Faded look: weight = clamp(BLEND_RAMP * (t - offset)), offset = BLEND_OFFSET + BLEND_SCALE * blend, t = 0 at the top
+# of the hair and 1 at its bottom. The ramp spans half the hair's height; blend = -1 puts it just above the top
+# (all hair coloured), +1 at the bottom (none), and every blend in between moves it.
+BLEND_RAMP = 2.0
+BLEND_OFFSET, BLEND_SCALE = 0.25, 0.75
+# Shine = global contrast (an S-curve) + local contrast (unsharp mask with a Gaussian of radius LOCAL_RADIUS x width,
+# the compositor Blur node's Gaussian: sigma = radius / 3, edges extended).
+GLOBAL_CONTRAST_GAIN = 2.0
+LOCAL_CONTRAST_GAIN = 1.0
+LOCAL_RADIUS = 0.05
 CURVE_TABLE_POINTS = 257  # Blender tabulates a curve at 257 points over [0, 1]
 
 
@@ -29,15 +38,41 @@ def hair_gradient(mask: np.ndarray) -> np.ndarray:
     return np.broadcast_to(np.clip(t, 0, 1)[:, None], (height, width)).astype(np.float32)
 
 
-def shine(rgb: np.ndarray, amount: float) -> np.ndarray:
-    """Contrast boost: y + amount * (smoothstep(y) - y), per channel: (..., 3) -> (..., 3)."""
+def blur_radius(width: int) -> int:
+    """The local-contrast blur radius in pixels for an image `width` pixels wide."""
+    return max(1, round(LOCAL_RADIUS * width))
+
+
+def gaussian_blur(rgb: np.ndarray, radius: int) -> np.ndarray:
+    """Blender's compositor Gaussian Blur: (H, W, C) -> (H, W, C), weights exp(-(3 i / radius)^2 / 2), |i| <= radius,
+    edges extended."""
+    offsets = np.arange(-radius, radius + 1)
+    weights = np.exp(-0.5 * (3.0 * offsets / radius) ** 2)
+    weights /= weights.sum()
+    padded = np.pad(np.asarray(rgb, np.float64), ((radius, radius), (radius, radius), (0, 0)), mode="edge")
+    height, width = rgb.shape[:2]
+    rows = sum(w * padded[k: k + height] for k, w in enumerate(weights))
+    return sum(w * rows[:, k: k + width] for k, w in enumerate(weights)).astype(np.float32)
+
+
+def shine(rgb: np.ndarray, amount: float, blurred: np.ndarray | None = None) -> np.ndarray:
+    """Global and local contrast, per channel: (..., 3) -> (..., 3) in [0, 1].
+
+    y + amount * GLOBAL_CONTRAST_GAIN * (smoothstep(y) - y) + amount * LOCAL_CONTRAST_GAIN * (y - blurred),
+    y = clip(rgb, 0, 1);
+    `blurred` is gaussian_blur of y (None: no local term).
+    """
     y = np.clip(rgb, 0.0, 1.0)
-    return (y + amount * (y * y * (3.0 - 2.0 * y) - y)).astype(np.float32)
+    out = y + amount * GLOBAL_CONTRAST_GAIN * (y * y * (3.0 - 2.0 * y) - y)
+    if blurred is not None:
+        out = out + amount * LOCAL_CONTRAST_GAIN * (y - blurred)
+    return np.clip(out, 0.0, 1.0).astype(np.float32)
 
 
 def blend_weight(gradient: np.ndarray, blend: float) -> np.ndarray:
-    """Faded look: clamp(BLEND_RAMP * (t - blend), 0, 1); blend = -1 colours everything, 1 nothing."""
-    return np.clip(BLEND_RAMP * (np.asarray(gradient, np.float32) - blend), 0.0, 1.0).astype(np.float32)
+    """Faded look: clamp(BLEND_RAMP * (t - BLEND_OFFSET - BLEND_SCALE * blend)); -1 colours all, 1 nothing."""
+    offset = BLEND_OFFSET + BLEND_SCALE * blend
+    return np.clip(BLEND_RAMP * (np.asarray(gradient, np.float32) - offset), 0.0, 1.0).astype(np.float32)
 
 
 def swatch_target(swatch: np.ndarray, values: dict[str, float]) -> np.ndarray:
@@ -70,7 +105,8 @@ def apply_hair_stage(source: np.ndarray, mask: np.ndarray, gradient: np.ndarray,
     """Pass 2: LUT, shine, then mix into the source by mask * blend weight * intensity: (H, W, 3)."""
     if source.shape[:2] != np.shape(mask) or np.shape(mask) != np.shape(gradient):
         raise VtoError(f"source {source.shape[:2]}, mask {np.shape(mask)} and gradient {np.shape(gradient)} differ in size")
-    recoloured = shine(apply_curves_node(source, match), values["shine"])
+    curved = np.clip(apply_curves_node(source, match), 0.0, 1.0)
+    recoloured = shine(curved, values["shine"], gaussian_blur(curved, blur_radius(source.shape[1])))
     alpha = np.clip(mask, 0, 1) * blend_weight(gradient, values["blend"]) * values["intensity"]
     return (source + alpha[..., None] * (recoloured - source)).astype(np.float32)
 

@@ -11,7 +11,11 @@ from .specs import RendererSpec
 
 # Streams of one sample's random numbers, so adding a use never shifts another's draws.
 _STREAM_MIXTURE, _STREAM_SENSITIVITY = 0, 1
-_MAX_REJECTIONS = 64
+# Gibbs sweeps per draw. In whitened coordinates the target is isotropic, so the chain only has to forget its start
+# (the clipped mean): on the full 17-parameter lipstick fit the marginal means and standard deviations of 2,000
+# draws stop moving (within 0.01) after 4 sweeps; 6 leave a margin at a few ms per draw.
+_GIBBS_SWEEPS = 6
+_INSIDE = 1e-9  # the start is moved this far inside the box
 
 
 @dataclass(frozen=True)
@@ -38,12 +42,50 @@ class PresetNormal:
         return cls(mean, np.linalg.cholesky(cov), wraps)
 
     def draw(self, rng: np.random.Generator) -> np.ndarray:
-        """One draw truncated to [0,1] by rejecting whole vectors (keeps correlations); wraps taken mod 1: (m,)."""
-        for _ in range(_MAX_REJECTIONS):
-            sample = self.mean + self.cholesky @ rng.standard_normal(self.mean.size)
-            if not (~self.wraps & ((sample < 0) | (sample > 1))).any():
-                break
-        return np.where(self.wraps, sample % 1.0, np.clip(sample, 0.0, 1.0))
+        """One draw from the normal truncated to the unit box (wrapping dimensions free, taken mod 1): (m,).
+
+        Gibbs sampling in whitened coordinates z (x = mean + L z, z ~ N(0, I) restricted to the box): each z_k in
+        turn is drawn from a standard normal truncated to the interval the box allows given the others. The
+        chain stays inside the box, so nothing is clipped and correlations are kept.
+        """
+        box = ~self.wraps
+        x = np.where(box, np.clip(self.mean, _INSIDE, 1 - _INSIDE), self.mean)
+        z = np.linalg.solve(self.cholesky, x - self.mean)
+        for _ in range(_GIBBS_SWEEPS):
+            for k in range(z.size):
+                column = self.cholesky[:, k]
+                rest = x - column * z[k]  # x without z_k's share
+                low, high = _interval(rest[box], column[box])
+                z[k] = truncated_standard_normal(rng, low, high)
+                x = rest + column * z[k]
+        return np.where(self.wraps, x % 1.0, np.clip(x, 0.0, 1.0))
+
+
+def _interval(rest: np.ndarray, column: np.ndarray) -> tuple[float, float]:
+    """The t with 0 <= rest + column * t <= 1 for every element: (low, high)."""
+    moving = np.abs(column) > 1e-12
+    if not moving.any():
+        return -np.inf, np.inf
+    rest, column = rest[moving], column[moving]
+    to_zero, to_one = -rest / column, (1.0 - rest) / column
+    rising = column > 0
+    low = float(np.where(rising, to_zero, to_one).max())
+    high = float(np.where(rising, to_one, to_zero).min())
+    return low, max(low, high)
+
+
+def truncated_standard_normal(rng: np.random.Generator, low: float, high: float) -> float:
+    """One draw of N(0, 1) restricted to [low, high], by inverse CDF in log space (exact far in the tails)."""
+    from scipy.special import log_ndtr, ndtri_exp
+
+    if low > 0:  # work in the lower tail, where log Phi keeps its precision
+        return -truncated_standard_normal(rng, -high, -low)
+    log_low, log_high = log_ndtr(low), log_ndtr(high)
+    if log_high - log_low < 1e-300:
+        return float(np.clip(low, low, high))
+    log_mass = log_high + np.log1p(-np.exp(log_low - log_high))
+    log_u = np.logaddexp(log_low, np.log(max(rng.random(), 1e-300)) + log_mass)
+    return float(np.clip(ndtri_exp(min(log_u, log_high)), low, high))
 
 
 def _wrap_offset(delta: np.ndarray) -> np.ndarray:

@@ -268,15 +268,31 @@ def _hair() -> RendererSpec:
     return RendererSpec(
         "hair",
         (
-            p("brightness", "Brightness", -0.3, 0.3, 0.0, "", sw, description="Added to the swatch values"),
-            p("contrast", "Contrast", 0.5, 2.0, 1.0, "", sw, description="Swatch contrast around mid-grey"),
-            p("exposure", "Exposure", 0.5, 2.0, 1.0, "factor", sw, description="Swatch gain"),
-            p("gamma", "Gamma", 0.5, 3.0, 1.0, "", sw, description="Swatch gamma (y = x^(1/gamma))"),
-            p("hue", "Hue", 0.0, 1.0, 0.0, "turns", sw, wraps=True, description="Swatch hue shift (wraps)"),
-            p("saturation", "Saturation", 0.0, 3.0, 1.0, "factor", sw, description="Swatch saturation factor"),
-            p("blend", "Blend", -1.0, 1.0, -1.0, "", non, description="Faded look: gradient offset from the top of the hair"),
-            p("intensity", "Intensity", 0.0, 1.0, 1.0, "", non, description="Strength of the colour change"),
-            p("shine", "Shine", 0.0, 1.0, 0.0, "", non, description="Contrast boost of the recoloured hair"),
+            p("brightness", "Brightness", -0.3, 0.3, 0.0, "", sw,
+              description="Added to the swatch's values (0 = unchanged). Unlike Blender's Bright/Contrast node, a "
+                          "plain offset in display values"),
+            p("contrast", "Contrast", 0.5, 2.0, 1.0, "factor", sw,
+              description="Swatch contrast: values scaled about mid-grey 0.5 (1 = unchanged). Unlike Blender's "
+                          "Bright/Contrast node, a factor, not -100..100"),
+            p("exposure", "Exposure", 0.5, 2.0, 1.0, "factor", sw,
+              description="Swatch gain: values multiplied by this (1 = unchanged). Blender's Exposure node uses "
+                          "stops: this is its 2^stops"),
+            p("gamma", "Gamma", 0.5, 3.0, 1.0, "", sw,
+              description="Swatch gamma: y = x^(1/gamma), >1 lightens (1 = unchanged). The inverse of Blender's "
+                          "Gamma node (y = x^gamma)"),
+            p("hue", "Hue", 0.0, 1.0, 0.0, "turns", sw, wraps=True,
+              description="Swatch hue shift in turns, wrapping (0 and 1 = unchanged). Blender's Hue/Saturation "
+                          "node's Hue is this + 0.5"),
+            p("saturation", "Saturation", 0.0, 3.0, 1.0, "factor", sw,
+              description="Swatch saturation factor, as Blender's Hue/Saturation node (0 = grey, 1 = unchanged)"),
+            p("blend", "Blend", -1.0, 1.0, -1.0, "", non,
+              description="Faded look: where the colour starts down the hair, fading in over half its height "
+                          "(-1 = all the hair, 0 = from a quarter down, 1 = none)"),
+            p("intensity", "Intensity", 0.0, 1.0, 1.0, "", non,
+              description="Strength of the colour change (0 = the hair's own colour, 1 = the full new colour)"),
+            p("shine", "Shine", 0.0, 1.0, 0.0, "", non,
+              description="Global and local contrast of the recoloured hair: an S-curve plus an unsharp mask that "
+                          "brings out the strands (0 = none)"),
         ),
     )
 

@@ -10,6 +10,16 @@ from .metrics import visibility_ratio
 from .specs import ParamSpec
 
 VISIBLE_RATIO = 3.0  # the change must stand this far above seed-to-seed noise (4x4 block means)
+# The look each parameter is measured on: the renderer's defaults, lipstick fully on; inputs that only act on a
+# layer get that layer (flakes for the sparkle inputs, a glossy coat, gloss at its 75th percentile, for its roughness).
+_LOOKS = {"lipstick": {"opacity": 1.0}, "hair": {}}
+_CONTEXT = {"sparkle": {"sparkle_density": 0.5, "sparkle_intensity": 0.75}, "gloss_roughness": {"gloss": 2.0}}
+
+
+def measurement_look(renderer: str, name: str) -> dict[str, float]:
+    """The parameter values (besides `name`) a visibility measurement of `name` starts from."""
+    context = next((values for prefix, values in _CONTEXT.items() if name.startswith(prefix)), {})
+    return {**_LOOKS[renderer], **(context if renderer == "lipstick" else {})}
 
 
 def quartile_values(param: ParamSpec) -> tuple[float, float]:

@@ -33,3 +33,20 @@ def test_compositor_matches_numpy_reference(name, values, hair_source):
     assert error.max() < 0.5  # the reference folds the C curve into 257-point channel tables as Blender does
     outside = np.abs(blender - hair_source.rgb)[hair_source.mask < 0.5]
     assert outside.max() < 1e-4, "pixels outside the hair mask must not change"
+
+
+def test_blend_changes_the_render_monotonically_over_its_whole_range(hair_source):
+    hair = hair_source.mask > 0.5
+    change = [np.abs(run_hair_stage(hair_source, {"blend": b, "hue": 0.5}) - hair_source.rgb)[hair].mean()
+              for b in np.linspace(-1, 1, 9)]
+    assert np.all(np.diff(change) < -1e-3), f"blend must colour less hair at every step: {np.round(change, 4)}"
+    assert change[-1] == 0.0
+
+
+def test_hue_wraps_in_the_compositor(hair_source):
+    low = run_hair_stage(hair_source, {"hue": 0.001, "saturation": 2.0})
+    high = run_hair_stage(hair_source, {"hue": 0.999, "saturation": 2.0})
+    half = run_hair_stage(hair_source, {"hue": 0.5, "saturation": 2.0})
+    # 0.002 turns apart: alike but for a few pixels where the matching LUT is steep
+    assert np.abs(low - high).mean() < 0.5 / 255 and np.percentile(np.abs(low - high), 99) < 4 / 255
+    assert np.abs(low - half).max() > 50 / 255

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from vto_core.errors import VtoError
-from vto_core.hair import (CURVE_TABLE_POINTS, apply_curves_node, apply_hair_stage, blend_weight, hair_gradient,
-                           render_hair_reference, shine)
+from vto_core.hair import (CURVE_TABLE_POINTS, apply_curves_node, apply_hair_stage, blend_weight, blur_radius,
+                           gaussian_blur, hair_gradient, render_hair_reference, shine)
 from vto_core.histogram import HistogramMatch
 from vto_core.specs import get_spec
 
@@ -25,15 +25,37 @@ def test_shine_keeps_ends_and_boosts_contrast():
     y = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
     assert shine(y, 0.0) == pytest.approx(y)
     boosted = shine(y, 1.0)
-    assert boosted == pytest.approx([0, 0.15625, 0.5, 0.84375, 1])  # smoothstep
+    assert boosted == pytest.approx([0, 0.0625, 0.5, 0.9375, 1])  # y + 2 (smoothstep(y) - y)
     assert np.isfinite(shine(np.array([-3.0, 7.0, np.float32(3e38)]), 1.0)).all()
 
 
-def test_blend_weight_ends():
+def test_shine_adds_local_contrast_around_the_blur():
+    y = np.full((9, 9, 3), 0.5, np.float32)
+    y[4, 4] = 0.7  # a highlight on a flat strand
+    blurred = gaussian_blur(y, 2)
+    out = shine(y, 1.0, blurred)
+    assert out[4, 4, 0] > shine(y, 1.0)[4, 4, 0] > 0.7  # the local term lifts the highlight further
+    assert out[0, 0] == pytest.approx(shine(y, 1.0)[0, 0])  # flat areas: the global curve only
+    assert shine(y, 0.0, blurred) == pytest.approx(y)
+
+
+def test_gaussian_blur_is_the_compositor_kernel():
+    """Blender's Gaussian Blur of radius r: sigma r/3, weights to |i| <= r, edges extended (measured on an impulse)."""
+    impulse = np.zeros((9, 9, 1), np.float32)
+    impulse[4, 4] = 1.0
+    blurred = gaussian_blur(impulse, 3)[4, 1:8, 0]
+    assert blurred == pytest.approx([0.00177, 0.02155, 0.09658, 0.15924, 0.09658, 0.02155, 0.00177], abs=2e-5)
+    assert gaussian_blur(np.ones((5, 7, 3)), 3) == pytest.approx(np.ones((5, 7, 3)))  # extended, not zero, edges
+    assert blur_radius(64) == 3 and blur_radius(8) == 1
+
+
+def test_blend_weight_moves_over_the_whole_range():
     t = np.linspace(0, 1, 5)
     assert blend_weight(t, -1.0) == pytest.approx(np.ones(5))
     assert blend_weight(t, 1.0) == pytest.approx(np.zeros(5))
-    assert blend_weight(t, 0.0) == pytest.approx([0, 0.5, 1, 1, 1])
+    assert blend_weight(t, 0.0) == pytest.approx([0, 0, 0.5, 1, 1])
+    coloured = [blend_weight(np.linspace(0, 1, 101), b).mean() for b in np.linspace(-1, 1, 21)]
+    assert np.all(np.diff(coloured) < 0), "every step of blend must colour less hair"
 
 
 def test_curves_node_equals_the_exact_composition_for_gentle_curves():

@@ -60,12 +60,14 @@ def test_preset_only_sampling_follows_the_fit():
     chol = sampler.normal.cholesky
     assert np.allclose(chol @ chol.T, np.cov(presets, rowvar=False) + 1e-4 * np.eye(5), atol=1e-6)
     unit = np.stack([sampler.sample_unit(i) for i in range(3000)])
-    # truncation at 1 pulls opacity (mean 0.84) down; the colour and roughness means stay put
-    assert np.allclose(unit.mean(0)[1:], presets.mean(0)[1:], atol=0.05)
+    # The exact truncated normal, by brute-force rejection: means and the red-green correlation must match it.
+    normal = sampler.normal
+    raw = normal.mean + np.random.default_rng(0).standard_normal((200_000, 5)) @ normal.cholesky.T
+    kept = raw[((raw >= 0) & (raw <= 1)).all(axis=1)]
+    assert np.allclose(unit.mean(0), kept.mean(0), atol=0.015)
     corr_fit = np.corrcoef(unit[:, 1], unit[:, 2])[0, 1]
-    corr_presets = np.corrcoef(presets[:, 1], presets[:, 2])[0, 1]
-    # truncation to the box weakens a correlation but must not erase it (per-dimension redraws did)
-    assert corr_presets > 0.5 and corr_fit > 0.7 * corr_presets
+    assert abs(corr_fit - np.corrcoef(kept[:, 1], kept[:, 2])[0, 1]) < 0.05
+    assert np.corrcoef(presets[:, 1], presets[:, 2])[0, 1] > 0.5 and corr_fit > 0.35  # weakened, not erased
 
 
 def test_wrapping_hue_is_fitted_on_the_circle():
@@ -99,3 +101,29 @@ def test_bad_arguments():
         make("hair").sample(-1)
     with pytest.raises(VtoError, match="at least 2 presets"):
         PresetNormal.fit(spec, np.zeros((1, 9)))
+
+
+def test_truncated_normal_is_a_truncated_normal_not_a_clipped_one():
+    """2-D case against brute-force rejection: same mean and covariance, and no mass piled on the box faces."""
+    spec = get_spec("lipstick", "red,green")
+    normal = PresetNormal(np.array([0.85, 0.2]), np.linalg.cholesky(np.array([[0.04, 0.03], [0.03, 0.04]])),
+                          np.array([False, False]))
+    draws = np.stack([normal.draw(np.random.default_rng([1, i])) for i in range(3000)])
+    rng = np.random.default_rng(2)
+    raw = normal.mean + rng.standard_normal((200_000, 2)) @ normal.cholesky.T
+    kept = raw[((raw >= 0) & (raw <= 1)).all(axis=1)][:20_000]
+    assert np.allclose(draws.mean(0), kept.mean(0), atol=0.012)
+    assert np.allclose(np.cov(draws.T), np.cov(kept.T), atol=0.004)
+    assert ((draws == 0.0) | (draws == 1.0)).mean() == 0.0
+    assert spec.size == 2
+
+
+def test_full_lipstick_fit_needs_no_clipping_and_far_tails_stay_finite():
+    spec = get_spec("lipstick", [p.name for p in get_spec("lipstick").params])
+    normal = PresetNormal.fit(spec, preset_matrix(spec, load_presets("lipstick")))
+    draws = np.stack([normal.draw(np.random.default_rng([3, i])) for i in range(200)])
+    assert ((draws > 0) & (draws < 1)).all()  # strictly inside: no draw was clipped onto a face
+    far = PresetNormal(np.array([14.0, -9.0]), np.eye(2) * 0.01, np.array([False, False]))  # 1,300 sigma out
+    tail = np.stack([far.draw(np.random.default_rng(i)) for i in range(20)])
+    assert np.isfinite(tail).all() and (tail >= 0).all() and (tail <= 1).all()
+    assert tail[:, 0].min() > 0.99 and tail[:, 1].max() < 0.01
