@@ -108,8 +108,12 @@ def _inside_mask(rgb, mask, rgb_name, mask_name):
     return rgb[inside]
 
 
-def fit_histogram_match(source_rgb, reference_rgb, source_mask=None, reference_mask=None, n_points=64):
-    """source_rgb (H, W, 3), reference_rgb (h, w, 3), masks (H, W) / (h, w) or None -> HistogramMatch."""
+def fit_histogram_match(source_rgb, reference_rgb, source_mask=None, reference_mask=None, n_points=64,
+                        match_gray=True):
+    """source_rgb (H, W, 3), reference_rgb (h, w, 3), masks (H, W) / (h, w) or None -> HistogramMatch.
+
+    With match_gray=False the gray LUT stays the identity: the R, G, B matches alone.
+    """
     n_points = _check_n_points(n_points)
     source_pixels = _inside_mask(source_rgb, source_mask, "source_rgb", "source_mask")
     reference_pixels = _inside_mask(reference_rgb, reference_mask, "reference_rgb", "reference_mask")
@@ -132,7 +136,7 @@ def fit_histogram_match(source_rgb, reference_rgb, source_mask=None, reference_m
         [apply_lut(source_pixels[:, channel], *channel_luts[channel]) for channel in range(3)], axis=-1
     ).astype(np.float64)
     channel_gray = luminance(channel_mapped).astype(np.float64)
-    if np.ptp(channel_gray) < _CONSTANT_SPREAD:
+    if not match_gray or np.ptp(channel_gray) < _CONSTANT_SPREAD:
         # A constant LUT here would paint every channel one gray; the channel LUTs already did the match.
         gray_lut = _identity_lut(n_points)
     else:
