@@ -61,7 +61,9 @@ def test_sensitivity_renders_differ_only_through_parameter_j(tmp_path):
         values = spec.values(spec.denormalise(sample.sensitivity_unit[j]))
         rerender = render_lipstick(values, sample.record["source"], 16, 2, sample.record["cycles_seed"])
         assert np.abs(rerender - sample.sensitivity[j]).max() < 1.0 / 65535 + 1e-6
-        assert np.abs(sample.sensitivity[j] - sample.render).max() > 1e-3
+        if abs(sample.sensitivity_unit[j][j] - sample.unit[j]) > 0.05:  # a redraw can land next to the value
+            assert np.abs(sample.sensitivity[j] - sample.render).max() > 1e-3
+    assert max(np.abs(s - sample.render).max() for s in sample.sensitivity) > 1e-3
 
 
 def test_shards_equal_one_run(tmp_path):
