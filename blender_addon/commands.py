@@ -6,7 +6,7 @@ import argparse
 import json
 
 from vto_core.cli import ArgumentParser
-from vto_core.dataset import DEFAULT_SAMPLES
+from vto_core.dataset import DEFAULT_RES, DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.imageio import write_image
 from vto_core.params_io import parse_params
@@ -122,9 +122,10 @@ def cmd_dataset(argv: list[str]) -> int:
     parser.add_argument("--n", type=int, required=True, help="samples in the whole dataset (all shards)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--shard", default=None, help="i/K; default from SLURM_ARRAY_TASK_ID/COUNT or JOB_COMPLETION_INDEX")
-    parser.add_argument("--res", type=int, default=64)
-    parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES)
-    parser.add_argument("--params", default=None, help="comma-separated parameters to model (default: all)")
+    parser.add_argument("--res", type=int, default=None, help=f"default {DEFAULT_RES}; a --blend scene's own")
+    parser.add_argument("--samples", type=int, default=None, help=f"default {DEFAULT_SAMPLES}; a --blend scene's own")
+    parser.add_argument("--params", default=None, help="comma-separated parameters to model (default: the spec's); "
+                                                          "'auto' with --blend: those that visibly change the scene")
     parser.add_argument("--sensitivity", action="store_true", help="also render R(X, g'_j) for each modelled j")
     parser.add_argument("--uniform-ratio", type=float, default=0.5, help="share of uniform draws vs the preset fit")
     parser.add_argument("--source-folder", default=None, help="hair: photos with <name>_mask beside them")
@@ -146,10 +147,19 @@ def cmd_dataset(argv: list[str]) -> int:
     scene = _user_scene() if args.renderer == "lipstick" else None
     if args.blend and args.renderer == "lipstick" and scene is None:
         raise VtoError(f"{args.blend}: no material of its active scene uses the 'VTO Lipstick' node group")
+    params = args.params.split(",") if args.params else None
+    if args.params == "auto":
+        if scene is None:
+            raise VtoError("--params auto needs --blend: it models the inputs that visibly change the user's scene")
+        from .scene_params import visible_parameters
+
+        params = [row["name"] for row in visible_parameters(bpy.data.scenes[scene], args.res, args.samples)
+                  if row["visible"]]
+        if not params:
+            raise VtoError(f"no lipstick input visibly changes {args.blend}: nothing to model")
     shard = parse_shard(args.shard) if args.shard else shard_from_env()
-    job = DatasetJob(args.renderer, args.out, args.n, args.seed, args.res, args.samples,
-                     args.params.split(",") if args.params else None, args.sensitivity, args.uniform_ratio,
-                     args.source_folder, scene)
+    job = DatasetJob(args.renderer, args.out, args.n, args.seed, args.res, args.samples, params, args.sensitivity,
+                     args.uniform_ratio, args.source_folder, scene)
     indices = shard_range(job.n, shard)
     if args.worker is not None:  # one of run_workers' processes: its share of the shard, then exit
         run_in_process(job, worker_indices(indices, parse_shard(args.worker)), args.limit, quiet=True)
@@ -159,9 +169,9 @@ def cmd_dataset(argv: list[str]) -> int:
         made = run_in_process(job, indices, args.limit, args.quiet)
     else:
         forwarded = [a for a in argv if a not in ("--quiet",)]
-        for option in ("--workers", "--shard", "--limit"):
+        for option in ("--workers", "--shard", "--limit", "--params"):
             forwarded = _drop_option(forwarded, option)
-        forwarded += ["--shard", f"{shard[0]}/{shard[1]}"]
+        forwarded += ["--shard", f"{shard[0]}/{shard[1]}", "--params", ",".join(job.spec.modelled)]
         made = run_workers(job, indices, args.workers, _launcher() + ["dataset", *forwarded], args.restart_every)
     print(json.dumps({"out": args.out, "shard": f"{shard[0]}/{shard[1]}", "indices": [indices.start, indices.stop],
                       "made": made}))

@@ -12,7 +12,7 @@ import bpy
 import numpy as np
 
 import vto_core
-from vto_core.dataset import (DEFAULT_SAMPLES, FORMAT_VERSION, SampleWriter, finished_indices, remove_stale_temporaries,
+from vto_core.dataset import (DEFAULT_RES, DEFAULT_SAMPLES, FORMAT_VERSION, SampleWriter, finished_indices, remove_stale_temporaries,
                               write_manifest)
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
@@ -30,8 +30,8 @@ class DatasetJob:
     out: str
     n: int
     seed: int = 0
-    res: int = 64
-    samples: int = DEFAULT_SAMPLES
+    res: int | None = DEFAULT_RES  # None with a user scene: the scene's own
+    samples: int | None = DEFAULT_SAMPLES
     params: list[str] | None = None
     sensitivity: bool = False
     uniform_ratio: float = 0.5
@@ -44,7 +44,11 @@ class DatasetJob:
             raise VtoError(f"--n must be at least 1, got {self.n}")
         if self.seed < 0:
             raise VtoError(f"--seed must be >= 0, got {self.seed}")
-        if not 8 <= self.res <= 4096 or not 1 <= self.samples <= 65536:
+        if self.scene is None:
+            self.res = DEFAULT_RES if self.res is None else self.res
+            self.samples = DEFAULT_SAMPLES if self.samples is None else self.samples
+        if (self.res is not None and not 8 <= self.res <= 4096) or (
+                self.samples is not None and not 1 <= self.samples <= 65536):
             raise VtoError(f"--res must be in [8, 4096] and --samples in [1, 65536], got {self.res} and {self.samples}")
         if not 0.0 <= self.uniform_ratio <= 1.0:
             raise VtoError(f"--uniform-ratio must be in [0, 1], got {self.uniform_ratio}")
@@ -56,6 +60,14 @@ class DatasetJob:
         """What manifest.json records: identical for every shard and rerun of the same dataset."""
         settings = {k: v for k, v in asdict(self).items() if k not in ("out", "spec")}
         settings["params"] = list(self.spec.modelled)
+        if self.scene is not None:  # a user's scene: its own settings where no flag overrode them, its own values
+            from .lipstick import scene_values
+
+            scene = bpy.data.scenes[self.scene]
+            settings["res"] = self.res or [scene.render.resolution_x * scene.render.resolution_percentage // 100,
+                                           scene.render.resolution_y * scene.render.resolution_percentage // 100]
+            settings["samples"] = self.samples or scene.cycles.samples
+            settings["fixed_values"] = {k: v for k, v in scene_values(scene).items() if k not in self.spec.modelled}
         return {
             "format_version": FORMAT_VERSION,
             **settings,
@@ -85,9 +97,15 @@ class SampleRenderer:
 
             self.photos = photo_sources(job.source_folder)
         if job.renderer == "lipstick" and job.scene:
+            from .lipstick import scene_values
+
             self.user_scene = bpy.data.scenes.get(job.scene)
             if self.user_scene is None:
                 raise VtoError(f"the open .blend has no scene '{job.scene}'")
+            self.own_opacity = scene_values(self.user_scene).get("opacity")
+            if self.own_opacity is None:
+                raise VtoError("the group's Opacity input is driven by a link: the bare source (opacity 0) cannot be "
+                               "rendered")
 
     def render(self, index: int) -> int:
         """Render and write sample `index`; returns the number of renders R(X, .) it took."""
@@ -126,6 +144,9 @@ class SampleRenderer:
         job = self.job
         scene = self.user_scene
 
+        if scene is not None:  # only the modelled inputs change; opacity returns to the artist's after the bare render
+            values = [{"opacity": self.own_opacity, **{n: v[n] for n in job.spec.modelled}} for v in values]
+
         def draw(v):
             return render_lipstick(v, source, job.res, job.samples, cycles_seed, scene=scene)
 
@@ -157,31 +178,12 @@ def prepare_output(job: DatasetJob) -> None:
     remove_stale_temporaries(out)
 
 
-class Progress:
-    """A one-line progress bar with renders/s and ETA, on stderr."""
+def progress_bar(samples: int, renders_per_sample: int, quiet: bool = False):
+    """A tqdm bar counting renders (renders/s, ETA) on stderr; every 30 s only when stderr is a log, not a terminal."""
+    from tqdm import tqdm
 
-    def __init__(self, total: int, renders_per_sample: int, quiet: bool = False):
-        self.total, self.per_sample, self.quiet = total, renders_per_sample, quiet
-        self.start = time.perf_counter()
-        self.last_draw = 0.0
-
-    def update(self, done: int, fresh: int, force: bool = False) -> None:
-        """Redraw (at most 4 times a second): `done` of total finished, `fresh` of them made in this run."""
-        now = time.perf_counter()
-        if self.quiet or (not force and now - self.last_draw < 0.25):
-            return
-        self.last_draw = now
-        elapsed = max(now - self.start, 1e-9)
-        rate = fresh * self.per_sample / elapsed
-        left = (self.total - done) * self.per_sample / rate if rate > 0 else float("nan")
-        width = 30
-        filled = int(width * done / max(self.total, 1))
-        eta = f"{left / 60:.1f} min" if left == left else "?"
-        sys.stderr.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{self.total} samples  "
-                         f"{rate:.1f} renders/s  ETA {eta}   ")
-        if force:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+    return tqdm(total=samples * renders_per_sample, unit="render", disable=quiet, dynamic_ncols=True,
+                mininterval=0.25 if sys.stderr.isatty() else 30.0, desc="dataset")
 
 
 def renders_per_sample(job: DatasetJob) -> int:
@@ -195,11 +197,9 @@ def run_in_process(job: DatasetJob, indices, limit: int | None = None, quiet: bo
     if limit is not None:
         todo = todo[:limit]
     renderer = SampleRenderer(job)
-    progress = Progress(len(todo), renders_per_sample(job), quiet)
-    for made, index in enumerate(todo, start=1):
-        renderer.render(index)
-        progress.update(made, made)
-    progress.update(len(todo), len(todo), force=bool(todo))
+    with progress_bar(len(todo), renders_per_sample(job), quiet) as progress:
+        for index in todo:
+            progress.update(renderer.render(index))
     return len(todo)
 
 
@@ -208,7 +208,8 @@ def run_workers(job: DatasetJob, indices: range, workers: int, worker_command: l
     out = Path(job.out)
     wanted = set(indices)
     initially_done = len(wanted & finished_indices(out))
-    progress = Progress(len(wanted), renders_per_sample(job))
+    per_sample = renders_per_sample(job)
+    progress = progress_bar(len(wanted) - initially_done, per_sample)
     running: dict[int, subprocess.Popen] = {}
     try:
         while True:
@@ -223,16 +224,15 @@ def run_workers(job: DatasetJob, indices: range, workers: int, worker_command: l
                 if w not in running and any(i not in finished for i in worker_indices(indices, (w, workers))):
                     running[w] = subprocess.Popen(worker_command + ["--worker", f"{w}/{workers}", "--limit",
                                                                     str(restart_every), "--quiet"])
-            progress.update(len(finished), len(finished) - initially_done)
+            progress.update((len(finished) - initially_done) * per_sample - progress.n)
             if not running:
                 break
             time.sleep(0.2)
     finally:
         for process in running.values():
             process.kill()
-    done = len(wanted & finished_indices(out))
-    progress.update(done, done - initially_done, force=True)
-    return done - initially_done
+        progress.close()
+    return len(wanted & finished_indices(out)) - initially_done
 
 
 def worker_indices(indices: range, worker: tuple[int, int]) -> list[int]:

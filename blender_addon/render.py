@@ -149,6 +149,53 @@ def render_passes(scene: bpy.types.Scene) -> dict[str, np.ndarray]:
     return layers
 
 
+@contextlib.contextmanager
+def _restored(owner, names: tuple[str, ...]):
+    """Put the attributes `names` of `owner` back as they were on leaving (the user's scene is not left changed)."""
+    saved = {name: getattr(owner, name) for name in names}
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            setattr(owner, name, value)
+
+
+def render_user_scene(scene: bpy.types.Scene, res: int | None = None, samples: int | None = None,
+                      seed: int | None = None) -> np.ndarray:
+    """Render a user's scene with its own settings and colour management: (H, W, 3) display values in [0, 1].
+
+    Only what is given overrides the scene (res: square resolution at 100 %; samples; Cycles seed), and only for
+    this render. Pixels come back through a 16-bit PNG saved with the scene's view transform and look, so an AgX
+    or Filmic scene is read as its artist sees it.
+    """
+    from vto_core.imageio import read_image
+
+    if res is not None and not 8 <= res <= 4096:
+        raise VtoError(f"resolution must be in [8, 4096], got {res}")
+    if samples is not None and not 1 <= samples <= 65536:
+        raise VtoError(f"samples must be in [1, 65536], got {samples}")
+    path = os.path.join(os.path.dirname(_render_path()), "user.png")
+    render, settings = scene.render, scene.render.image_settings
+    with _restored(render, ("filepath", "use_file_extension", "resolution_x", "resolution_y",
+                            "resolution_percentage")), \
+            _restored(settings, ("file_format", "color_depth", "color_mode")), \
+            _restored(scene.cycles, ("samples", "seed", "use_animated_seed")):
+        if res is not None:
+            render.resolution_x = render.resolution_y = res
+            render.resolution_percentage = 100
+        if samples is not None:
+            scene.cycles.samples = samples
+        if seed is not None:
+            scene.cycles.seed, scene.cycles.use_animated_seed = seed, False
+        settings.file_format, settings.color_depth, settings.color_mode = "PNG", "16", "RGB"
+        render.filepath, render.use_file_extension = path, False
+        with bpy.context.temp_override(scene=scene), _quiet_stdout():
+            bpy.ops.render.render(write_still=True, scene=scene.name)
+    rgb, _ = read_image(path)
+    os.remove(path)
+    return rgb
+
+
 def to_display(linear_rgb: np.ndarray) -> np.ndarray:
     """Scene-linear RGB (H, W, 3) -> display sRGB in [0,1], exactly what the Standard view transform shows."""
     if np.isnan(linear_rgb).any():

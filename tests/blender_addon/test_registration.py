@@ -32,6 +32,7 @@ from blender_addon.nodes_lipstick import lipstick_group
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 scene.name = "Product Shot"
+scene.render.engine = "CYCLES"  # the scene's own engine is kept (EEVEE would need a GPU here)
 bpy.ops.mesh.primitive_plane_add(size=8)
 material = bpy.data.materials.new("Swatch Card")
 material.use_nodes = True

@@ -1,0 +1,90 @@
+"""`vto scene-params`: which "VTO Lipstick" inputs visibly change a user's scene (model only what it requires)."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import bpy
+
+from vto_core.cli import ArgumentParser
+from vto_core.errors import VtoError
+from vto_core.specs import get_spec
+from vto_core.visibility import VISIBLE_RATIO, parameter_visibility, quartile_values
+
+from .lipstick import (linked_inputs, makeup_nodes, material_name, render_lipstick, scene_values,
+                       set_lipstick_values)
+
+
+def open_blend(path: str | None) -> None:
+    """Open `path` (a .blend) unless it is already the open file; with no path the open file must exist."""
+    if path is None:
+        if not bpy.data.filepath:
+            raise VtoError("give --blend FILE (or run inside Blender with a .blend open)")
+        return
+    if not os.path.isfile(path):
+        raise VtoError(f"no .blend at {path}")
+    if os.path.abspath(bpy.data.filepath or "") != os.path.abspath(path):
+        bpy.ops.wm.open_mainfile(filepath=path)
+
+
+def user_scene(material: str | None = None) -> bpy.types.Scene:
+    """The open file's active scene, checked to use the group (in `material`, when named).
+
+    Values are written to every group node of the scene alike; `material` only names which one must be there.
+    """
+    scene = bpy.context.scene
+    nodes = makeup_nodes(scene) if scene is not None else []
+    if material is not None:
+        nodes = [n for n in nodes if material_name(n) == material]
+    if not nodes:
+        where = f"material '{material}'" if material else "any material of its active scene"
+        raise VtoError(f"{bpy.data.filepath or 'the open file'}: {where} does not use the 'VTO Lipstick' node group")
+    return scene
+
+
+def visible_parameters(scene: bpy.types.Scene, res: int | None = None, samples: int | None = None) -> list[dict]:
+    """For each lipstick input: its 25th -> 75th percentile change on `scene` against render noise.
+
+    Other inputs stay at the scene's own values; the scene's values are put back afterwards. Linked inputs are
+    reported, not measured. Returns one dict per input: name, socket, ratio (or None), visible, reason.
+    """
+    own = scene_values(scene)
+    linked = set(linked_inputs(scene))
+    rows = []
+    try:
+        for param in get_spec("lipstick").params:
+            if param.name in linked:
+                rows.append({"name": param.name, "socket": param.socket, "ratio": None, "visible": False,
+                             "reason": "driven by a link in the material"})
+                continue
+            ratio = parameter_visibility(
+                lambda values, seed: render_lipstick(values, res=res, samples=samples, seed=seed, scene=scene),
+                param, {param.name: own[param.name]})
+            low, high = quartile_values(param)
+            visible = ratio >= VISIBLE_RATIO
+            rows.append({"name": param.name, "socket": param.socket, "ratio": round(ratio, 3), "visible": visible,
+                         "reason": f"{low:g} -> {high:g} changes the image {ratio:.2f}x the render noise"
+                                   + ("" if visible else f" (< {VISIBLE_RATIO:g})")})
+    finally:
+        set_lipstick_values(scene, own, fill_defaults=False)
+    return rows
+
+
+def cmd_scene_params(argv: list[str]) -> int:
+    """vto scene-params [--blend FILE] [--material NAME] [--res R] [--samples N]."""
+    parser = ArgumentParser(prog="vto scene-params",
+                            description="list which lipstick inputs visibly change a user's scene")
+    parser.add_argument("--blend", default=None, help="the .blend (default: the file open in Blender)")
+    parser.add_argument("--material", default=None, help="only this material's group")
+    parser.add_argument("--res", type=int, default=None, help="override the scene's resolution (square)")
+    parser.add_argument("--samples", type=int, default=None, help="override the scene's Cycles samples")
+    args = parser.parse_args(argv)
+    open_blend(args.blend)
+    rows = visible_parameters(user_scene(args.material), args.res, args.samples)
+    for row in rows:
+        print(json.dumps(row))
+    visible = [row["name"] for row in rows if row["visible"]]
+    print(json.dumps({"visible": visible, "hidden": [row["name"] for row in rows if not row["visible"]],
+                      "params": ",".join(visible)}))
+    return 0

@@ -1,0 +1,130 @@
+"""A user's .blend as it is: its own render settings and view transform, linked inputs refused, scene-params."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.blender
+bpy = pytest.importorskip("bpy")
+
+from blender_addon.lipstick import render_lipstick, scene_values, set_lipstick_values  # noqa: E402
+from blender_addon.scene_params import user_scene, visible_parameters  # noqa: E402
+from vto_core import cli  # noqa: E402
+from vto_core.dataset import DatasetReader  # noqa: E402
+from vto_core.errors import VtoError  # noqa: E402
+
+# A swatch card filling the frame, lit by a white world; AgX view, 24 px, 3 samples of its own; no sparkles.
+CARD_SCENE = r'''
+import bpy, sys
+from blender_addon.nodes_lipstick import lipstick_group
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+scene.name = "Card"
+scene.render.engine = "CYCLES"
+scene.cycles.samples = 3
+scene.cycles.use_denoising = False
+scene.render.resolution_x = scene.render.resolution_y = 24
+scene.render.resolution_percentage = 100
+scene.view_settings.view_transform = "AgX"
+bpy.ops.mesh.primitive_plane_add(size=8)
+material = bpy.data.materials.new("Swatch Card")
+material.use_nodes = True
+nodes = material.node_tree.nodes
+bare = nodes["Principled BSDF"]
+bare.inputs["Base Color"].default_value = (0.05, 0.05, 0.05, 1)
+group = nodes.new("ShaderNodeGroup"); group.name = "Makeup"; group.node_tree = lipstick_group()
+group.inputs["Opacity"].default_value = 1.0
+group.inputs["Gloss"].default_value = 0.0
+group.inputs["Sparkle Density"].default_value = 0.0
+material.node_tree.links.new(bare.outputs[0], group.inputs["Lips"])
+material.node_tree.links.new(group.outputs[0], nodes["Material Output"].inputs["Surface"])
+if len(sys.argv) > 2:  # a value node drives Metallic
+    value = nodes.new("ShaderNodeValue"); value.outputs[0].default_value = 0.3
+    material.node_tree.links.new(value.outputs[0], group.inputs["Metallic"])
+bpy.context.object.data.materials.append(material)
+bpy.ops.object.camera_add(location=(0, 0, 3)); scene.camera = bpy.context.object
+world = bpy.data.worlds.new("white"); world.color = (1, 1, 1); scene.world = world
+bpy.ops.wm.save_as_mainfile(filepath=sys.argv[1])
+'''
+
+
+def _make(path, *extra):
+    subprocess.run([sys.executable, "-c", CARD_SCENE, str(path), *extra], check=True, capture_output=True)
+    return path
+
+
+@pytest.fixture(scope="module")
+def card(tmp_path_factory):
+    return _make(tmp_path_factory.mktemp("card") / "card.blend")
+
+
+def _open(path):
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    return user_scene()
+
+
+def test_the_scenes_own_settings_and_view_transform_are_kept(card):
+    scene = _open(card)
+    image = render_lipstick({"red": 200.0, "green": 40.0, "blue": 40.0}, seed=0, res=None, samples=None, scene=scene)
+    assert image.shape == (24, 24, 3)  # the scene's own resolution
+    assert scene.cycles.samples == 3 and scene.view_settings.view_transform == "AgX"  # untouched
+    scene.view_settings.view_transform = "Standard"
+    standard = render_lipstick({"red": 200.0, "green": 40.0, "blue": 40.0}, seed=0, res=None, samples=None, scene=scene)
+    # AgX desaturates a strong red compared with Standard: the pixels read back are the view transform's
+    agx_spread = np.ptp(image.reshape(-1, 3).mean(0))
+    assert np.ptp(standard.reshape(-1, 3).mean(0)) > agx_spread + 0.05
+    assert render_lipstick({}, res=16, samples=2, scene=scene).shape == (16, 16, 3)  # flags override, for one render
+    assert scene.render.resolution_x == 24 and scene.cycles.samples == 3
+
+
+def test_unmodelled_inputs_keep_the_artists_values(card):
+    scene = _open(card)
+    set_lipstick_values(scene, {"red": 10.0}, fill_defaults=False)
+    values = scene_values(scene)
+    assert values["red"] == 10.0 and values["opacity"] == 1.0 and values["gloss"] == 0.0  # not reset to defaults
+
+
+def test_a_linked_input_is_refused_by_name_and_nothing_changes(tmp_path):
+    scene = _open(_make(tmp_path / "linked.blend", "link"))
+    before = scene_values(scene)
+    with pytest.raises(VtoError, match="'Metallic' of node 'Makeup' in material 'Swatch Card' is driven by a link"):
+        set_lipstick_values(scene, {"red": 12.0, "metallic": 0.9}, fill_defaults=False)
+    assert scene_values(scene) == before
+    assert "metallic" not in before
+
+
+def test_scene_params_finds_what_the_scene_shows_and_hides(card, capsys):
+    assert cli.run(["scene-params", "--blend", str(card)]) == 0
+    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    rows = {row["name"]: row for row in lines[:-1]}
+    for name in ("opacity", "red", "green", "blue"):
+        assert rows[name]["visible"], rows[name]
+    for name in ("sparkle_size", "sparkle_red", "sparkle_intensity"):  # no flakes on the card: nothing to see
+        assert not rows[name]["visible"], rows[name]
+        assert rows[name]["ratio"] < 2.0
+    assert lines[-1]["params"].split(",") == lines[-1]["visible"]
+    assert scene_values(user_scene())["red"] == pytest.approx(170.0)  # the scene's values are put back
+
+
+def test_dataset_params_auto_models_the_visible_inputs(card, tmp_path):
+    _open(card)
+    rows = visible_parameters(user_scene())
+    visible = [row["name"] for row in rows if row["visible"]]
+    out = tmp_path / "ds"
+    assert cli.run(["dataset", "lipstick", "--blend", str(card), "--params", "auto", "--out", str(out), "--n", "1",
+                    "--quiet"]) == 0
+    manifest = DatasetReader(out).manifest
+    assert manifest["params"] == visible
+    assert manifest["res"] == [24, 24] and manifest["samples"] == 3
+    assert set(manifest["fixed_values"]) == {row["name"] for row in rows} - set(visible)
+    assert manifest["fixed_values"]["sparkle_density"] == 0.0
+
+
+def test_params_auto_needs_a_blend(tmp_path, capsys):
+    bpy.ops.wm.read_factory_settings(use_empty=True)  # no .blend open: the default scene
+    assert cli.run(["dataset", "lipstick", "--params", "auto", "--out", str(tmp_path / "x"), "--n", "1"]) == 2
+    assert "--params auto needs --blend" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
