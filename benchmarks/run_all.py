@@ -1,11 +1,12 @@
 """Run every benchmark in turn (`make bench`)."""
 
-from benchmarks import bench_dataset, bench_render, bench_training
+from benchmarks import bench_dataset, bench_hair_match, bench_render, bench_training
 
 
 def main() -> None:
     """Each benchmark writes its own table under benchmarks/results/."""
     bench_render.main()
+    bench_hair_match.main()
     bench_dataset.main()
     bench_training.main()
 
