@@ -38,6 +38,7 @@ class EvalSettings:
     res: int = 64
     samples: int = DEFAULT_SAMPLES
     seed: int = 777
+    refine: tuple[int, ...] = ()  # render budgets of the encoder + render-search methods
 
 
 def parameter_errors(spec: RendererSpec, truth_unit: np.ndarray, estimate_unit: np.ndarray) -> np.ndarray:
@@ -110,6 +111,18 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
         estimates["nearest preset"] = spec.full_values(presets[nearest])
         timings["nearest preset"] = (time.perf_counter() - start) if index < SOURCE_POOL else float("nan")
 
+        for budget in settings.refine:
+            from .refine import refine_by_render
+
+            def render_unit(u, source_a=source_a, seed=seed):
+                return draw(spec.values(spec.denormalise(u)), source_a, seed)
+
+            start = time.perf_counter()
+            found = refine_by_render(render_unit, reference, spec.normalise(spec.vector(estimates["encoder"])), budget,
+                                     seed)
+            estimates[f"encoder + render search {budget}"] = spec.values(spec.denormalise(found.unit))
+            timings[f"encoder + render search {budget}"] = timings["encoder"] + time.perf_counter() - start
+
         row = {"index": index, "source_a": source_a, "source_b": source_b, "truth": values, "buckets":
                buckets(spec, values, unit), "methods": {}}
         images = [reference, truth]
@@ -121,7 +134,7 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
                 "param_error": dict(zip(spec.modelled, parameter_errors(spec, unit, estimate_unit).round(5).tolist())),
                 "estimate": {k: round(float(v), 4) for k, v in estimate.items() if k in spec.modelled},
             }
-            if method != "mean preset":
+            if method in ("encoder", "nearest preset"):
                 images.append(on_b)
         rows.append(row)
         if len(sheet) < 8:
@@ -207,7 +220,7 @@ def _plots(spec: RendererSpec, rows: list[dict], out_dir: Path) -> None:
 
 
 def cmd_eval(argv: list[str]) -> int:
-    """vto eval --model M.onnx [--n N] [--res R] [--samples S] [--seed S] --out DIR."""
+    """vto eval --model M.onnx [--n N] [--res R] [--samples S] [--seed S] [--refine render:B,...] --out DIR."""
     parser = ArgumentParser(prog="vto eval", description="the paper's transfer experiment on an exported encoder")
     parser.add_argument("--model", required=True, help="an encoder exported with `vto export`")
     parser.add_argument("--out", required=True, help="folder for results.json, results.md, plots and sheet.png")
@@ -215,8 +228,12 @@ def cmd_eval(argv: list[str]) -> int:
     parser.add_argument("--res", type=int, default=EvalSettings.res)
     parser.add_argument("--samples", type=int, default=EvalSettings.samples)
     parser.add_argument("--seed", type=int, default=EvalSettings.seed, help="seed of the sampled looks")
+    parser.add_argument("--refine", default="", help="extra methods: render:B,... (encoder + CMA-ES, B renders)")
     args = parser.parse_args(argv)
-    summary = run_eval(args.model, args.out, EvalSettings(args.n, args.res, args.samples, args.seed))
+    from .match import parse_refine
+
+    budgets = tuple(parse_refine(item)[1] for item in args.refine.split(",") if item)
+    summary = run_eval(args.model, args.out, EvalSettings(args.n, args.res, args.samples, args.seed, budgets))
     print(json.dumps({"out": args.out, **{m: {k: v for k, v in s.items() if k in ("psnr_mean", "ssim_mean")}
                                           for m, s in summary.items()}}))
     return 0
