@@ -139,11 +139,9 @@ def cmd_dataset(argv: list[str]) -> int:
     if args.workers < 1:
         raise VtoError(f"--workers must be at least 1, got {args.workers}")
     if args.blend:
-        import os
+        from .scene_params import open_blend
 
-        if not os.path.isfile(args.blend):
-            raise VtoError(f"no .blend at {args.blend}")
-        bpy.ops.wm.open_mainfile(filepath=args.blend)
+        open_blend(args.blend)
     scene = _user_scene() if args.renderer == "lipstick" else None
     if args.blend and args.renderer == "lipstick" and scene is None:
         raise VtoError(f"{args.blend}: no material of its active scene uses the 'VTO Lipstick' node group")

@@ -12,12 +12,14 @@ import bpy
 import numpy as np
 
 import vto_core
-from vto_core.dataset import (DEFAULT_RES, DEFAULT_SAMPLES, FORMAT_VERSION, SampleWriter, finished_indices, remove_stale_temporaries,
-                              write_manifest)
+from vto_core.dataset import (DEFAULT_RES, DEFAULT_SAMPLES, FORMAT_VERSION, SampleWriter, finished_indices,
+                              remove_stale_temporaries, write_manifest)
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler
 from vto_core.specs import RendererSpec, get_spec
+
+from .lipstick import scene_values
 
 _SOURCE_STREAM = 7
 
@@ -61,8 +63,6 @@ class DatasetJob:
         settings = {k: v for k, v in asdict(self).items() if k not in ("out", "spec")}
         settings["params"] = list(self.spec.modelled)
         if self.scene is not None:  # a user's scene: its own settings where no flag overrode them, its own values
-            from .lipstick import scene_values
-
             scene = bpy.data.scenes[self.scene]
             settings["res"] = self.res or [scene.render.resolution_x * scene.render.resolution_percentage // 100,
                                            scene.render.resolution_y * scene.render.resolution_percentage // 100]
@@ -97,8 +97,6 @@ class SampleRenderer:
 
             self.photos = photo_sources(job.source_folder)
         if job.renderer == "lipstick" and job.scene:
-            from .lipstick import scene_values
-
             self.user_scene = bpy.data.scenes.get(job.scene)
             if self.user_scene is None:
                 raise VtoError(f"the open .blend has no scene '{job.scene}'")

@@ -142,6 +142,7 @@ def _run_pass(group_name: str, images: dict[str, np.ndarray], values: dict[str, 
             group_node.inputs[param.socket].default_value = values[param.name]
     height, width = next(iter(images.values())).shape[:2]
     configure_cycles(scene, 8, 1)
+    scene.cycles.use_denoising = False  # nothing is rendered: the compositor makes the image
     scene.render.resolution_x, scene.render.resolution_y = width, height
     scene.render.use_compositing = True
     settings = scene.render.image_settings
