@@ -91,15 +91,31 @@ def resolve_config(cls, config_file: str | None = None, overrides: list[str] | N
     unknown = set(values) - set(types)
     if unknown:
         raise VtoError(f"unknown setting(s) {', '.join(sorted(unknown))} for {cls.__name__}")
+    for key, value in values.items():  # a JSON file's values: "false" or 2.5 steps are errors, not surprises
+        _check_type(key, types[key], value)
     config = cls(**values)
     validate(config)
     return config
 
 
+def _check_type(key: str, kind, value) -> None:
+    """A setting's value must have its field's type (an int is a fine float; a bool is not an int)."""
+    kind = {"bool": bool, "int": int, "float": float, "str": str}.get(kind, kind)
+    if kind is bool:
+        fits = isinstance(value, bool)
+    elif kind in (int, float):
+        fits = isinstance(value, (int, float) if kind is float else int) and not isinstance(value, bool)
+    else:
+        fits = isinstance(value, kind)
+    if not fits:
+        raise VtoError(f"setting '{key}' must be a {kind.__name__}, got {value!r}")
+
+
 def validate(config) -> None:
     """Ranges that would otherwise fail deep inside a run."""
-    if config.steps < 1 or config.batch_size < 1:
-        raise VtoError("steps and batch_size must be at least 1")
+    for name in ("steps", "batch_size", "log_every", "checkpoint_every"):
+        if getattr(config, name) < 1:
+            raise VtoError(f"{name} must be at least 1, got {getattr(config, name)}")
     if config.lr <= 0:
         raise VtoError(f"lr must be positive, got {config.lr}")
     if not 0.0 <= config.val_fraction < 1.0:

@@ -55,10 +55,29 @@ def split(reader: DatasetReader, val_fraction: float) -> tuple[list[int], list[i
     return list(range(count - held_out)), list(range(count - held_out, count))
 
 
-def endless(loader: DataLoader):
-    """Yield batches forever, reshuffling each pass."""
-    while True:
-        yield from loader
+class EpochSampler(torch.utils.data.Sampler):
+    """Sample positions forever, epoch after epoch, each epoch a permutation seeded by (seed, epoch).
+
+    Starting at position `start` (= step x batch size) continues the order a run that reached that step had seen,
+    without loading the samples before it, so a resumed run trains on exactly the batches an unbroken one would.
+    """
+
+    def __init__(self, size: int, seed: int, start: int = 0):
+        self.size, self.seed, self.start = size, seed, start
+
+    def __iter__(self):
+        epoch, offset = divmod(self.start, self.size)
+        while True:
+            generator = torch.Generator().manual_seed(self.seed * 1_000_003 + epoch)
+            yield from torch.randperm(self.size, generator=generator)[offset:].tolist()
+            epoch, offset = epoch + 1, 0
+
+
+def training_batches(dataset: RenderDataset, batch_size: int, seed: int, step: int = 0, num_workers: int = 0):
+    """Endless training batches from optimiser step `step` on (see EpochSampler)."""
+    batch_size = min(batch_size, len(dataset))
+    sampler = EpochSampler(len(dataset), seed, step * batch_size)
+    return iter(DataLoader(dataset, batch_size=batch_size, sampler=sampler, num_workers=num_workers))
 
 
 def make_loader(dataset: RenderDataset, batch_size: int, seed: int, num_workers: int = 0, shuffle: bool = True):

@@ -59,13 +59,22 @@ def sensitivity_loss(real_base, real_moved, fake_base, fake_moved):
     return per_parameter.sum(dim=1).mean()
 
 
-def graphics_loss(g_true, g_pred):
-    """g_true, g_pred: (B, m) -> scalar mean over B of the summed squared parameter error."""
+def parameter_difference(g_true, g_pred, wraps=None):
+    """g_pred - g_true: (B, m); dimensions flagged in `wraps` (m,) bool (hue) on the circle, in [-0.5, 0.5)."""
+    difference = g_pred - g_true
+    if wraps is not None and any(wraps):
+        mask = torch.as_tensor(wraps, dtype=torch.bool, device=difference.device)
+        difference = torch.where(mask, torch.remainder(difference + 0.5, 1.0) - 0.5, difference)
+    return difference
+
+
+def graphics_loss(g_true, g_pred, wraps=None):
+    """g_true, g_pred: (B, m) -> scalar mean over B of the summed squared parameter error (wrapping dims circular)."""
     if g_true.ndim != 2 or g_true.shape != g_pred.shape:
         raise VtoError(
             f"graphics_loss: expected two (B, m) tensors of one shape, got {_shape(g_true)} and {_shape(g_pred)}"
         )
-    return (g_true - g_pred).square().sum(dim=1).mean()
+    return parameter_difference(g_true, g_pred, wraps).square().sum(dim=1).mean()
 
 
 def gradient_penalty(critic, real, fake):

@@ -9,19 +9,27 @@ from vto_core.errors import VtoError
 from vto_core.specs import RendererSpec
 
 from .config import EncoderConfig, config_dict
-from .data import RenderDataset, endless, make_loader, split
-from .losses import PerceptualDistance, graphics_loss
+from .data import RenderDataset, make_loader, split, training_batches
+from .losses import PerceptualDistance, graphics_loss, parameter_difference
 from .networks import Encoder, build
 from .run import RunFolder, optimise
 
 
-def load_frozen_imitator(run_path: str, spec: RendererSpec, device: str) -> torch.nn.Module:
-    """The imitator of a finished run, frozen; refused if it models another spec than the dataset."""
+def load_frozen_imitator(run_path: str, spec: RendererSpec, device: str,
+                         image_size: list[int] | None = None) -> torch.nn.Module:
+    """The imitator of a finished run, frozen; refused if made for another renderer, spec or image size."""
     checkpoint = RunFolder(run_path).load_checkpoint(required=True)
     if checkpoint.get("kind") != "imitator":
         raise VtoError(f"{run_path} is a {checkpoint.get('kind')} run, not an imitator run")
-    if not RendererSpec.from_dict(checkpoint["spec"]).same_as(spec):
-        raise VtoError(f"the imitator in {run_path} was trained for another parameter spec than this dataset")
+    theirs = RendererSpec.from_dict(checkpoint["spec"])
+    if theirs.renderer != spec.renderer:
+        raise VtoError(f"the imitator in {run_path} imitates the {theirs.renderer} renderer, not {spec.renderer}")
+    if not theirs.same_as(spec):
+        raise VtoError(f"the imitator in {run_path} models [{', '.join(theirs.modelled)}], this dataset "
+                       f"[{', '.join(spec.modelled)}]: another parameter spec")
+    if image_size is not None and list(checkpoint.get("image_size", image_size)) != list(image_size):
+        raise VtoError(f"the imitator in {run_path} was trained on {checkpoint['image_size']} images, this dataset "
+                       f"has {list(image_size)}")
     imitator = build("imitator", checkpoint["model_args"]).to(device)
     imitator.load_state_dict(checkpoint["model"])
     imitator.eval()
@@ -30,14 +38,14 @@ def load_frozen_imitator(run_path: str, spec: RendererSpec, device: str) -> torc
     return imitator
 
 
-def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: EncoderConfig):
+def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: EncoderConfig, wraps=None):
     """g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g): (log dict, total)."""
     device = config.device
     source, render, g = (batch[k].to(device) for k in ("source", "render", "g"))
     g_hat = encoder(render)
     losses, total = {}, torch.zeros((), device=device)
     if config.loss in ("graphics", "both"):
-        loss_graphics = graphics_loss(g, g_hat)
+        loss_graphics = graphics_loss(g, g_hat, wraps)
         total = total + loss_graphics
         losses["graphics"] = loss_graphics.detach()
     if config.loss in ("rendering", "both"):
@@ -49,13 +57,13 @@ def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: 
 
 
 @torch.no_grad()
-def parameter_error(encoder: Encoder, loader, device: str) -> float:
-    """Held-out mean squared error of the normalised parameters."""
+def parameter_error(encoder: Encoder, loader, device: str, wraps=None) -> float:
+    """Held-out mean squared error of the normalised parameters (wrapping ones on the circle)."""
     encoder.eval()
     total, count = 0.0, 0
     for batch in loader:
         g = batch["g"].to(device)
-        total += float(((encoder(batch["render"].to(device)) - g) ** 2).mean()) * len(g)
+        total += float(parameter_difference(g, encoder(batch["render"].to(device)), wraps).square().mean()) * len(g)
         count += len(g)
     encoder.train()
     return total / count
@@ -69,15 +77,18 @@ def train_encoder(data: str, imitator_run: str | None, out: str, config: Encoder
     use_rendering = config.loss in ("rendering", "both")
     if use_rendering and not imitator_run:
         raise VtoError("the rendering loss needs --imitator RUN (or --set loss=graphics)")
-    imitator = load_frozen_imitator(imitator_run, reader.spec, device) if use_rendering else None
+    res = reader.manifest["res"]
+    image_size = [res, res] if isinstance(res, int) else list(res[::-1])  # (H, W); a user scene records (W, H)
+    wraps = [p.wraps for p in reader.spec.modelled_params]
+    imitator = load_frozen_imitator(imitator_run, reader.spec, device, image_size) if use_rendering else None
     run = RunFolder(out)
     run.save_config({**config_dict(config), "kind": "encoder", "data": str(data), "imitator": imitator_run,
                      "spec": reader.spec.to_dict()})
     torch.manual_seed(config.seed)
     train_positions, val_positions = split(reader, config.val_fraction)
     train_set = RenderDataset(reader, train_positions)
-    batches = endless(make_loader(train_set, config.batch_size, config.seed, config.num_workers))
-    val_loader = make_loader(RenderDataset(reader, val_positions), config.batch_size, 0, shuffle=False) if val_positions else None
+    val_loader = (make_loader(RenderDataset(reader, val_positions), config.batch_size, 0, shuffle=False)
+                  if val_positions else None)
 
     # 2. Encoder, perceptual distance, optimiser; resume.
     perceptual = PerceptualDistance(config.perceptual, config.vgg_weights or None).to(device) if use_rendering else None
@@ -90,7 +101,6 @@ def train_encoder(data: str, imitator_run: str | None, out: str, config: Encoder
         optimiser.load_state_dict(checkpoint["optimizer"])
         step = checkpoint["step"]
         run.truncate_log(step)
-    image_size = list(train_set[0]["render"].shape[1:])
 
     def save(at_step: int) -> None:
         run.save_checkpoint({
@@ -100,10 +110,14 @@ def train_encoder(data: str, imitator_run: str | None, out: str, config: Encoder
         })
 
     def validate() -> dict[str, float]:
-        return {"val_param_mse": parameter_error(encoder, val_loader, device)} if val_loader is not None else {}
+        if val_loader is None:
+            return {}
+        return {"val_param_mse": parameter_error(encoder, val_loader, device, wraps)}
 
     # 3. Loop: g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g).
-    optimise(run, config, step, batches, lambda batch: encoder_losses(encoder, imitator, perceptual, batch, config),
+    batches = training_batches(train_set, config.batch_size, config.seed, step, config.num_workers)
+    optimise(run, config, step, batches,
+             lambda batch: encoder_losses(encoder, imitator, perceptual, batch, config, wraps),
              optimiser, validate, save)
 
     # 4. Loss plot.

@@ -7,7 +7,7 @@ import torch
 from vto_core.dataset import DatasetReader
 
 from .config import ImitatorConfig, config_dict
-from .data import RenderDataset, endless, make_loader, split
+from .data import RenderDataset, make_loader, split, training_batches
 from .losses import PerceptualDistance, critic_loss, generator_adversarial_loss, sensitivity_loss
 from .networks import Critic, Imitator
 from .run import RunFolder, optimise
@@ -77,7 +77,6 @@ def train_imitator(data: str, out: str, config: ImitatorConfig) -> RunFolder:
     device = config.device
     train_positions, val_positions = split(reader, config.val_fraction)
     train_set = RenderDataset(reader, train_positions, need_sensitivity=config.use_sensitivity)
-    batches = endless(make_loader(train_set, config.batch_size, config.seed, config.num_workers))
     val_loader = make_loader(RenderDataset(reader, val_positions), config.batch_size, 0, shuffle=False) if val_positions else None
 
     # 2. Networks, optimisers, perceptual distance; resume from the last checkpoint.
@@ -110,6 +109,7 @@ def train_imitator(data: str, out: str, config: ImitatorConfig) -> RunFolder:
 
     # 3. Loop: critic update(s), then the imitator on imitation + sensitivity + adversarial terms;
     #    log, validate and checkpoint as configured.
+    batches = training_batches(train_set, config.batch_size, config.seed, step, config.num_workers)
     optimise(run, config, step, batches,
              lambda batch: imitator_losses(imitator, critic, critic_opt, perceptual, batch, config),
              imitator_opt, validate, save)

@@ -343,3 +343,14 @@ def test_a_file_that_is_not_vgg16_raises(tmp_path):
 def test_unknown_mode_raises():
     with pytest.raises(VtoError, match="unknown mode 'lpips'"):
         PerceptualDistance(mode="lpips")
+
+
+def test_graphics_loss_takes_hue_on_the_circle():
+    from training.losses import graphics_loss
+
+    truth, guess = torch.tensor([[0.98, 0.5]]), torch.tensor([[0.02, 0.5]])
+    assert float(graphics_loss(truth, guess, wraps=[True, False])) == pytest.approx(0.04 ** 2, abs=1e-6)
+    assert float(graphics_loss(truth, guess)) == pytest.approx(0.96 ** 2, abs=1e-6)  # a linear dimension
+    guess.requires_grad_(True)
+    graphics_loss(truth, guess, wraps=[True, False]).backward()
+    assert guess.grad[0, 0] > 0  # pushes 0.02 down towards 0.98 across the wrap, not up across the range

@@ -156,3 +156,53 @@ def test_missing_data_is_a_clear_error_that_leaves_no_run_folder(tmp_path, capsy
     assert cli.run(["train", "imitator", "--data", str(tmp_path / "nothing"), "--out", str(out)]) == 2
     assert "is not a dataset" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_resumed_run_sees_the_batches_an_unbroken_run_sees(lipstick_dataset, tmp_path):
+    """N steps, or N/2 + resume for N/2: the same data order, so the same weights (graphics loss is deterministic)."""
+    config = TINY_ENCODER + ["loss=graphics", "checkpoint_every=3"]
+    whole = train_encoder(str(lipstick_dataset), None, str(tmp_path / "whole"), resolve_config(EncoderConfig, None,
+                                                                                                 config + ["steps=6"]))
+    half = tmp_path / "half"
+    train_encoder(str(lipstick_dataset), None, str(half), resolve_config(EncoderConfig, None, config + ["steps=3"]))
+    resumed = train_encoder(str(lipstick_dataset), None, str(half), resolve_config(EncoderConfig, None,
+                                                                                    config + ["steps=6"]))
+    a, b = whole.load_checkpoint()["model"], resumed.load_checkpoint()["model"]
+    assert all(torch.allclose(a[k], b[k], atol=1e-6) for k in a)
+
+
+def test_epoch_sampler_continues_where_it_stopped():
+    from training.data import EpochSampler
+
+    unbroken = list(__import__("itertools").islice(iter(EpochSampler(7, seed=3)), 20))
+    resumed = list(__import__("itertools").islice(iter(EpochSampler(7, seed=3, start=9)), 11))
+    assert resumed == unbroken[9:] and sorted(unbroken[:7]) == list(range(7)) and unbroken[:7] != unbroken[7:14]
+
+
+@pytest.mark.parametrize("content, message", [
+    ({"use_gan": "false"}, "'use_gan' must be a bool"),
+    ({"steps": 2.5}, "'steps' must be a int"),
+    ({"lr": True}, "'lr' must be a float"),
+    ({"log_every": 0}, "log_every must be at least 1"),
+    ({"checkpoint_every": -1}, "checkpoint_every must be at least 1"),
+    ({"nonsense": 1}, "unknown setting"),
+])
+def test_config_files_are_type_checked(content, message, tmp_path):
+    path = tmp_path / "config.json"
+    path.write_text(json.dumps(content))
+    with pytest.raises(VtoError, match=message):
+        resolve_config(ImitatorConfig, str(path))
+    assert resolve_config(ImitatorConfig, None, ["use_gan=false", "lr=0.001"]).use_gan is False
+
+
+def test_the_encoder_refuses_an_imitator_for_another_spec_or_size(lipstick_dataset, imitator_run, tmp_path):
+    from training.train_encoder import load_frozen_imitator
+
+    spec = get_spec("lipstick", "opacity,red,green,blue")
+    assert load_frozen_imitator(str(imitator_run), spec, "cpu", [16, 16]) is not None
+    with pytest.raises(VtoError, match=r"models \[opacity, red, green, blue\], this dataset \[red\]"):
+        load_frozen_imitator(str(imitator_run), get_spec("lipstick", "red"), "cpu", [16, 16])
+    with pytest.raises(VtoError, match="imitates the lipstick renderer, not hair"):
+        load_frozen_imitator(str(imitator_run), get_spec("hair"), "cpu", [16, 16])
+    with pytest.raises(VtoError, match=r"trained on \[16, 16\] images, this dataset has \[64, 64\]"):
+        load_frozen_imitator(str(imitator_run), spec, "cpu", [64, 64])
