@@ -44,6 +44,7 @@ def add_spec_args(parser: argparse.ArgumentParser) -> None:
 def cmd_spec(argv: list[str]) -> int:
     """vto spec RENDERER [--params a,b]."""
     from .specs import get_spec
+    from .visibility import below_bar
 
     parser = ArgumentParser(prog="vto spec", description=COMMANDS["spec"][2])
     add_spec_args(parser)
@@ -52,6 +53,7 @@ def cmd_spec(argv: list[str]) -> int:
     out = spec.to_dict()
     out["vector_order"] = list(spec.modelled)
     out["left_out"] = spec.left_out()
+    out["below_visibility_bar"] = {k: v for k, v in below_bar(spec.renderer).items() if k in spec.modelled}
     print(json.dumps(out, indent=1))
     return 0
 

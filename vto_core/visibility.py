@@ -13,7 +13,20 @@ VISIBLE_RATIO = 3.0  # the change must stand this far above seed-to-seed noise (
 # The look each parameter is measured on: the renderer's defaults, lipstick fully on; inputs that only act on a
 # layer get that layer (flakes for the sparkle inputs, a glossy coat, gloss at its 75th percentile, for its roughness).
 _LOOKS = {"lipstick": {"opacity": 1.0}, "hair": {}}
+# Modelled by default although below the bar (measured on the looks below, 64 px, default samples): the encoder
+# can still learn them from the whole lips or hair, but not every 4x4 block shows them. `vto spec` names them.
+BELOW_BAR = {
+    "lipstick": {"gloss_roughness": (2.36, "a rough or a sharp coat spreads the same light differently")},
+    "hair": {"saturation": (2.67, "histogram matching to the swatch flattens saturation changes"),
+             "shine": (2.25, "contrast amplifies the source's own render noise along with the change")},
+}
 _CONTEXT = {"sparkle": {"sparkle_density": 0.5, "sparkle_intensity": 0.75}, "gloss_roughness": {"gloss": 2.0}}
+
+
+def below_bar(renderer: str) -> dict[str, str]:
+    """The modelled parameters that stay under VISIBLE_RATIO, each with its measured ratio and why."""
+    return {name: f"visibility {ratio:.2f} < {VISIBLE_RATIO:g}: {why}" for name, (ratio, why) in
+            BELOW_BAR.get(renderer, {}).items()}
 
 
 def measurement_look(renderer: str, name: str) -> dict[str, float]:

@@ -151,3 +151,15 @@ def test_json_round_trip_and_same_as():
     assert not back.same_as(get_spec("lipstick", "red,green"))
     with pytest.raises(VtoError, match="not a renderer spec"):
         RendererSpec.from_dict({"renderer": "hair"})
+
+
+def test_vto_spec_names_what_is_left_out_and_what_is_below_the_visibility_bar(capsys):
+    from vto_core import cli
+
+    assert cli.run(["spec", "lipstick"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert "sparkle_size" in out["left_out"] and "3x above render noise" in out["left_out"]["sparkle_size"]
+    assert list(out["below_visibility_bar"]) == ["gloss_roughness"]
+    assert cli.run(["spec", "hair", "--params", "hue,shine"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert list(out["below_visibility_bar"]) == ["shine"] and out["left_out"]["gamma"] == "not selected"
