@@ -346,11 +346,22 @@ def test_unknown_mode_raises():
 
 
 def test_graphics_loss_takes_hue_on_the_circle():
-    from training.losses import graphics_loss
-
     truth, guess = torch.tensor([[0.98, 0.5]]), torch.tensor([[0.02, 0.5]])
     assert float(graphics_loss(truth, guess, wraps=[True, False])) == pytest.approx(0.04 ** 2, abs=1e-6)
     assert float(graphics_loss(truth, guess)) == pytest.approx(0.96 ** 2, abs=1e-6)  # a linear dimension
     guess.requires_grad_(True)
     graphics_loss(truth, guess, wraps=[True, False]).backward()
     assert guess.grad[0, 0] > 0  # pushes 0.02 down towards 0.98 across the wrap, not up across the range
+
+
+def test_torch_ssim_equals_scikit_image():
+    import numpy as np
+    from skimage.metrics import structural_similarity
+
+    rng = np.random.default_rng(5)
+    a = rng.random((20, 26, 3))
+    b = np.clip(a + rng.normal(0, 0.1, a.shape), 0, 1)
+    expected = structural_similarity(a, b, gaussian_weights=True, sigma=1.5, use_sample_covariance=False,
+                                     data_range=1.0, channel_axis=-1)
+    as_tensor = lambda x: torch.from_numpy(x.transpose(2, 0, 1)[None].astype(np.float64))  # noqa: E731
+    assert float(ssim(as_tensor(a), as_tensor(b))[0]) == pytest.approx(expected, abs=1e-6)

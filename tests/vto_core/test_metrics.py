@@ -150,3 +150,14 @@ def test_ssim_decreases_as_noise_increases():
     assert scores[0] == pytest.approx(1.0)
     assert all(later < earlier for earlier, later in zip(scores, scores[1:]))
     assert scores[-1] < 0.5
+
+
+def test_ssim_equals_scikit_image():
+    from skimage.metrics import structural_similarity
+
+    rng = np.random.default_rng(4)
+    a = rng.random((24, 30, 3))
+    b = np.clip(a + rng.normal(0, 0.1, a.shape), 0, 1)
+    expected = structural_similarity(a, b, gaussian_weights=True, sigma=1.5, use_sample_covariance=False,
+                                     data_range=1.0, channel_axis=-1)
+    assert ssim(a, b) == pytest.approx(expected, abs=1e-12)
