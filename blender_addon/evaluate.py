@@ -39,6 +39,7 @@ class EvalSettings:
     samples: int = DEFAULT_SAMPLES
     seed: int = 777
     refine: tuple[int, ...] = ()  # render budgets of the encoder + render-search methods
+    search_from_mean: tuple[int, ...] = ()  # render budgets of render search started at the mean preset
 
 
 def parameter_errors(spec: RendererSpec, truth_unit: np.ndarray, estimate_unit: np.ndarray) -> np.ndarray:
@@ -111,17 +112,21 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
         estimates["nearest preset"] = spec.full_values(presets[nearest])
         timings["nearest preset"] = (time.perf_counter() - start) if index < SOURCE_POOL else float("nan")
 
-        for budget in settings.refine:
+        searches = [("encoder", budget) for budget in settings.refine]
+        searches += [("mean preset", budget) for budget in settings.search_from_mean]
+        for start_method, budget in searches:
             from .refine import refine_by_render
 
             def render_unit(u, source_a=source_a, seed=seed):
                 return draw(spec.values(spec.denormalise(u)), source_a, seed)
 
+            name = f"encoder + render search {budget}" if start_method == "encoder" else \
+                f"render search {budget} from the mean preset"
             start = time.perf_counter()
-            found = refine_by_render(render_unit, reference, spec.normalise(spec.vector(estimates["encoder"])), budget,
-                                     seed)
-            estimates[f"encoder + render search {budget}"] = spec.values(spec.denormalise(found.unit))
-            timings[f"encoder + render search {budget}"] = timings["encoder"] + time.perf_counter() - start
+            found = refine_by_render(render_unit, reference, spec.normalise(spec.vector(estimates[start_method])),
+                                     budget, seed)
+            estimates[name] = spec.values(spec.denormalise(found.unit))
+            timings[name] = timings[start_method] + time.perf_counter() - start
 
         row = {"index": index, "source_a": source_a, "source_b": source_b, "truth": values, "buckets":
                buckets(spec, values, unit), "methods": {}}
