@@ -170,7 +170,8 @@ def cmd_dataset(argv: list[str]) -> int:
         for option in ("--workers", "--shard", "--limit", "--params"):
             forwarded = _drop_option(forwarded, option)
         forwarded += ["--shard", f"{shard[0]}/{shard[1]}", "--params", ",".join(job.spec.modelled)]
-        made = run_workers(job, indices, args.workers, _launcher() + ["dataset", *forwarded], args.restart_every)
+        made = run_workers(job, indices, args.workers, _launcher() + ["dataset", *forwarded], args.restart_every,
+                           args.quiet)
     print(json.dumps({"out": args.out, "shard": f"{shard[0]}/{shard[1]}", "indices": [indices.start, indices.stop],
                       "made": made}))
     return 0

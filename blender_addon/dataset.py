@@ -19,7 +19,8 @@ from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler
 from vto_core.specs import RendererSpec, get_spec
 
-from .lipstick import scene_values
+from .lipstick import linked_inputs, scene_values
+from .render import sample_setting
 
 _SOURCE_STREAM = 7
 
@@ -62,17 +63,24 @@ class DatasetJob:
         """What manifest.json records: identical for every shard and rerun of the same dataset."""
         settings = {k: v for k, v in asdict(self).items() if k not in ("out", "spec")}
         settings["params"] = list(self.spec.modelled)
+        images = "16-bit PNG, display sRGB (Standard view transform)"
         if self.scene is not None:  # a user's scene: its own settings where no flag overrode them, its own values
             scene = bpy.data.scenes[self.scene]
+            samples_at = sample_setting(scene)
+            settings["engine"] = scene.render.engine
             settings["res"] = self.res or [scene.render.resolution_x * scene.render.resolution_percentage // 100,
                                            scene.render.resolution_y * scene.render.resolution_percentage // 100]
-            settings["samples"] = self.samples or scene.cycles.samples
+            settings["samples"] = self.samples or (getattr(*samples_at) if samples_at else None)
             settings["fixed_values"] = {k: v for k, v in scene_values(scene).items() if k not in self.spec.modelled}
+            settings["linked_inputs"] = linked_inputs(scene)
+            view = scene.view_settings
+            images = (f"16-bit PNG, display {scene.display_settings.display_device} through the scene's view transform "
+                      f"'{view.view_transform}', look '{view.look}', exposure {view.exposure:g}, gamma {view.gamma:g}")
         return {
             "format_version": FORMAT_VERSION,
             **settings,
             "spec": self.spec.to_dict(),
-            "images": "16-bit PNG, display sRGB (Standard view transform)",
+            "images": images,
             "blender_version": bpy.app.version_string,
             "vto_version": vto_core.__version__,
         }
@@ -100,8 +108,8 @@ class SampleRenderer:
             self.user_scene = bpy.data.scenes.get(job.scene)
             if self.user_scene is None:
                 raise VtoError(f"the open .blend has no scene '{job.scene}'")
-            self.own_opacity = scene_values(self.user_scene).get("opacity")
-            if self.own_opacity is None:
+            self.own_values = scene_values(self.user_scene)  # unmodelled inputs stay at these
+            if "opacity" not in self.own_values:
                 raise VtoError("the group's Opacity input is driven by a link: the bare source (opacity 0) cannot be "
                                "rendered")
 
@@ -111,6 +119,8 @@ class SampleRenderer:
         unit = self.sampler.sample_unit(index)
         variants = [unit] + ([self.sampler.resample_one_unit(index, j) for j in range(spec.size)] if job.sensitivity else [])
         values = [spec.values(spec.denormalise(u)) for u in variants]
+        if self.user_scene is not None:  # the artist's values, only the modelled inputs sampled
+            values = [{**self.own_values, **{name: v[name] for name in spec.modelled}} for v in values]
         source = source_id(job.seed, index)
         cycles_seed = index  # one seed for every render of a sample: sensitivity differences share its noise
         if job.renderer == "lipstick":
@@ -140,13 +150,9 @@ class SampleRenderer:
         from .lipstick import render_lipstick
 
         job = self.job
-        scene = self.user_scene
-
-        if scene is not None:  # only the modelled inputs change; opacity returns to the artist's after the bare render
-            values = [{"opacity": self.own_opacity, **{n: v[n] for n in job.spec.modelled}} for v in values]
 
         def draw(v):
-            return render_lipstick(v, source, job.res, job.samples, cycles_seed, scene=scene)
+            return render_lipstick(v, source, job.res, job.samples, cycles_seed, scene=self.user_scene)
 
         bare = draw({**values[0], "opacity": 0.0})
         return bare, [draw(v) for v in values], {}
@@ -201,13 +207,14 @@ def run_in_process(job: DatasetJob, indices, limit: int | None = None, quiet: bo
     return len(todo)
 
 
-def run_workers(job: DatasetJob, indices: range, workers: int, worker_command: list[str], restart_every: int) -> int:
+def run_workers(job: DatasetJob, indices: range, workers: int, worker_command: list[str], restart_every: int,
+                quiet: bool = False) -> int:
     """Render `indices` with `workers` processes of `worker_command`, restarting each after `restart_every` samples."""
     out = Path(job.out)
     wanted = set(indices)
     initially_done = len(wanted & finished_indices(out))
     per_sample = renders_per_sample(job)
-    progress = progress_bar(len(wanted) - initially_done, per_sample)
+    progress = progress_bar(len(wanted) - initially_done, per_sample, quiet)
     running: dict[int, subprocess.Popen] = {}
     try:
         while True:

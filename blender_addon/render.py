@@ -161,13 +161,23 @@ def _restored(owner, names: tuple[str, ...]):
             setattr(owner, name, value)
 
 
+def sample_setting(scene: bpy.types.Scene) -> tuple[object, str] | None:
+    """Where `scene`'s render engine keeps its render sample count, (owner, attribute); None for an engine without."""
+    engine = scene.render.engine
+    if engine == "CYCLES":
+        return scene.cycles, "samples"
+    if engine.startswith("BLENDER_EEVEE"):
+        return scene.eevee, "taa_render_samples"
+    return None
+
+
 def render_user_scene(scene: bpy.types.Scene, res: int | None = None, samples: int | None = None,
                       seed: int | None = None) -> np.ndarray:
     """Render a user's scene with its own settings and colour management: (H, W, 3) display values in [0, 1].
 
-    Only what is given overrides the scene (res: square resolution at 100 %; samples; Cycles seed), and only for
-    this render. Pixels come back through a 16-bit PNG saved with the scene's view transform and look, so an AgX
-    or Filmic scene is read as its artist sees it.
+    Only what is given overrides the scene (res: square resolution at 100 %; samples, Cycles or EEVEE; Cycles
+    seed), and only for this render. Pixels come back through a 16-bit PNG saved with the scene's view transform
+    and look (not an output override), so an AgX or Filmic scene is read as its artist sees it.
     """
     from vto_core.imageio import read_image
 
@@ -175,20 +185,25 @@ def render_user_scene(scene: bpy.types.Scene, res: int | None = None, samples: i
         raise VtoError(f"resolution must be in [8, 4096], got {res}")
     if samples is not None and not 1 <= samples <= 65536:
         raise VtoError(f"samples must be in [1, 65536], got {samples}")
+    samples_at = sample_setting(scene)
+    if samples is not None and samples_at is None:
+        raise VtoError(f"scene '{scene.name}' renders with {scene.render.engine}, which has no sample count to set")
     path = os.path.join(os.path.dirname(_render_path()), "user.png")
     render, settings = scene.render, scene.render.image_settings
     with _restored(render, ("filepath", "use_file_extension", "resolution_x", "resolution_y",
                             "resolution_percentage")), \
-            _restored(settings, ("file_format", "color_depth", "color_mode")), \
-            _restored(scene.cycles, ("samples", "seed", "use_animated_seed")):
+            _restored(settings, ("file_format", "color_depth", "color_mode", "color_management")), \
+            _restored(scene.cycles, ("seed", "use_animated_seed")), \
+            (_restored(samples_at[0], samples_at[1:]) if samples_at else contextlib.nullcontext()):
         if res is not None:
             render.resolution_x = render.resolution_y = res
             render.resolution_percentage = 100
         if samples is not None:
-            scene.cycles.samples = samples
+            setattr(*samples_at, samples)
         if seed is not None:
             scene.cycles.seed, scene.cycles.use_animated_seed = seed, False
         settings.file_format, settings.color_depth, settings.color_mode = "PNG", "16", "RGB"
+        settings.color_management = "FOLLOW_SCENE"
         render.filepath, render.use_file_extension = path, False
         with bpy.context.temp_override(scene=scene), _quiet_stdout():
             bpy.ops.render.render(write_still=True, scene=scene.name)

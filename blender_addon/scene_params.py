@@ -60,7 +60,7 @@ def visible_parameters(scene: bpy.types.Scene, res: int | None = None, samples: 
                 continue
             ratio = parameter_visibility(
                 lambda values, seed: render_lipstick(values, res=res, samples=samples, seed=seed, scene=scene),
-                param, {param.name: own[param.name]})
+                param, own)  # every render writes all own values: no measured input stays moved for the next
             low, high = quartile_values(param)
             visible = ratio >= VISIBLE_RATIO
             rows.append({"name": param.name, "socket": param.socket, "ratio": round(ratio, 3), "visible": visible,
