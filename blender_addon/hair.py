@@ -158,7 +158,8 @@ def run_hair_stage(source: HairSource, values: dict[str, float], swatch: np.ndar
     match = fit_hair_match(source.rgb, source.mask, np.clip(recoloured, 0, 1))
     set_lut(color_group(), match.gray_lut, match.channel_luts)
     set_blur_radius(color_group(), blur_radius(source.rgb.shape[1]))
-    stage_inputs = dict(zip(STAGE_IMAGES[:3], (source.rgb, source.mask, hair_gradient(source.mask))))
+    display = np.clip(source.rgb, 0, 1)  # a display-referred stage: HDR sources are clipped, as in the reference
+    stage_inputs = dict(zip(STAGE_IMAGES[:3], (display, source.mask, hair_gradient(source.mask))))
     return np.clip(_run_pass(COLOR_GROUP, stage_inputs, values), 0, 1).astype(np.float32)
 
 

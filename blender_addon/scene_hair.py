@@ -24,6 +24,7 @@ HEAD_MATERIAL = "VTO Head Material"
 HAIR_PASS_INDEX = 1
 STRANDS, POINTS_PER_STRAND = 3000, 8
 HEAD_RADIUS = 1.0
+RADIAL_ROUGHNESS = 0.8
 STRAND_RADIUS = 0.014  # thick enough that 3,000 strands hide the scalp at 64-256 px
 
 
@@ -64,6 +65,10 @@ def _hair_material() -> bpy.types.Material:
     hair.name = "Hair BSDF"
     hair.parametrization = "MELANIN"  # before touching Melanin: other parametrisations hide it
     hair.inputs["Roughness"].default_value = 0.3
+    # Glints smoothed: at Blender's default 0.3 back-lit strands glint, and at 64 px / 16 spp that noise (up to
+    # 9.7/255 on 4x4 block means of the hair) hid the hair stage's parameter changes; 0.8 cuts the noisiest sources'
+    # noise by 40-50 % (benchmarks/results/hair_match.md).
+    hair.inputs["Radial Roughness"].default_value = RADIAL_ROUGHNESS
     output = nodes.new("ShaderNodeOutputMaterial")
     links.new(hair.outputs[0], output.inputs["Surface"])
     return material

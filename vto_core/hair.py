@@ -10,6 +10,7 @@ from .histogram import HistogramMatch, fit_histogram_match
 
 SWATCH_PARAMS = ("brightness", "contrast", "exposure", "gamma", "hue", "saturation")
 LUT_POINTS = 64
+MAX_LUT_SLOPE = 4.0  # contrast-limited matching (histogram.limit_slope): see fit_hair_match
 # Faded look: weight = clamp(BLEND_RAMP * (t - offset)), offset = BLEND_OFFSET + BLEND_SCALE * blend, t = 0 at the top
 # of the hair and 1 at its bottom. The ramp spans half the hair's height; blend = -1 puts it just above the top
 # (all hair coloured), +1 at the bottom (none), and every blend in between moves it.
@@ -83,10 +84,18 @@ def swatch_target(swatch: np.ndarray, values: dict[str, float]) -> np.ndarray:
 def fit_hair_match(source: np.ndarray, mask: np.ndarray, recoloured_swatch: np.ndarray) -> HistogramMatch:
     """The LUTs that move the masked hair's R, G and B histograms onto the recoloured swatch's.
 
-    No gray curve: applied after the channel curves (the only order Blender's RGB Curves node has), it pulled the
-    channels 2-3x further from the swatch (Wasserstein-1) and left gray no closer (benchmarks/results/hair_match.md).
+    source (H, W, 3) and mask (H, W) must be finite everywhere (VtoError otherwise), swatch (h, w, 3).
+    No gray curve: after the channel curves (the only order Blender's RGB Curves node has) it pulled the channels
+    2.4-3.9x further from the swatch (Wasserstein-1) and left gray no closer; first (folded into the channel curves)
+    it was worse too. Slopes are capped at MAX_LUT_SLOPE: uncapped, a narrow band of bright source values was spread
+    over the swatch's sparse highlights, turning render noise into coloured speckles. The trade, from
+    benchmarks/results/hair_match.md: mean W1 to the swatch 0.51 -> 1.32/255, block noise after matching 0.97 ->
+    0.86 of the source's, and the weakest parameter's visibility, averaged over sources, 3.53 -> 3.98.
     """
-    return fit_histogram_match(source, recoloured_swatch, source_mask=mask, n_points=LUT_POINTS, match_gray=False)
+    if not (np.isfinite(source).all() and np.isfinite(mask).all()):
+        raise VtoError("hair source or mask has NaN or inf pixels")
+    return fit_histogram_match(source, recoloured_swatch, source_mask=mask, n_points=LUT_POINTS, match_gray=False,
+                               max_slope=MAX_LUT_SLOPE)
 
 
 def apply_curves_node(rgb: np.ndarray, match: HistogramMatch) -> np.ndarray:
@@ -106,9 +115,14 @@ def apply_curves_node(rgb: np.ndarray, match: HistogramMatch) -> np.ndarray:
 
 def apply_hair_stage(source: np.ndarray, mask: np.ndarray, gradient: np.ndarray, match: HistogramMatch,
                      values: dict[str, float]) -> np.ndarray:
-    """Pass 2: LUT, shine, then mix into the source by mask * blend weight * intensity: (H, W, 3)."""
+    """Pass 2: LUT, shine, then mix into the source by mask * blend weight * intensity: (H, W, 3) in [0, 1].
+
+    The stage works on display values: a source above 1 (HDR) or below 0 is clipped first, as blender_addon.hair
+    stages it.
+    """
     if source.shape[:2] != np.shape(mask) or np.shape(mask) != np.shape(gradient):
         raise VtoError(f"source {source.shape[:2]}, mask {np.shape(mask)} and gradient {np.shape(gradient)} differ in size")
+    source = np.clip(source, 0.0, 1.0)
     curved = np.clip(apply_curves_node(source, match), 0.0, 1.0)
     recoloured = shine(curved, values["shine"], gaussian_blur(curved, blur_radius(source.shape[1])))
     alpha = np.clip(mask, 0, 1) * blend_weight(gradient, values["blend"]) * values["intensity"]

@@ -53,6 +53,26 @@ def _match_checked(source, reference, n_points):
     return lut_x.astype(np.float32), np.clip(lut_y, 0.0, 1.0).astype(np.float32)
 
 
+def limit_slope(lut_x, lut_y, source_values, max_slope):
+    """Contrast-limited LUT: lut_x, lut_y (K,), source (N,) -> lut_y (K,) float32 with every slope <= max_slope.
+
+    Steeper steps are cut to max_slope (where a narrow band of source values spreads over a sparse reference tail,
+    a step would multiply the source's noise by its slope); the capped curve is then shifted so that the mean of the
+    mapped source values stays what the uncapped LUT gives, and clipped to [0, 1]: the colour is kept, the tails
+    give way.
+    """
+    lut_x = np.asarray(lut_x, dtype=np.float64)
+    lut_y = np.asarray(lut_y, dtype=np.float64)
+    if not max_slope > 0:
+        raise VtoError(f"max_slope must be positive, got {max_slope}")
+    steps = np.minimum(np.diff(lut_y), max_slope * np.diff(lut_x))
+    capped = lut_y[0] + np.concatenate([[0.0], np.cumsum(steps)])
+    source = np.clip(np.asarray(source_values, dtype=np.float64).ravel(), 0.0, 1.0)
+    if source.size:
+        capped += np.mean(np.interp(source, lut_x, lut_y) - np.interp(source, lut_x, capped))
+    return np.clip(capped, 0.0, 1.0).astype(np.float32)
+
+
 def match_lut(source_values, reference_values, n_points=64):
     """source (N,), reference (M,) float -> (lut_x, lut_y), each (n_points,) float32, lut_y monotone in [0, 1]."""
     n_points = _check_n_points(n_points)
@@ -109,10 +129,11 @@ def _inside_mask(rgb, mask, rgb_name, mask_name):
 
 
 def fit_histogram_match(source_rgb, reference_rgb, source_mask=None, reference_mask=None, n_points=64,
-                        match_gray=True):
+                        match_gray=True, max_slope=None):
     """source_rgb (H, W, 3), reference_rgb (h, w, 3), masks (H, W) / (h, w) or None -> HistogramMatch.
 
-    With match_gray=False the gray LUT stays the identity: the R, G, B matches alone.
+    With match_gray=False the gray LUT stays the identity: the R, G, B matches alone. With max_slope, every
+    channel LUT goes through limit_slope (the gray LUT is then fitted on the capped channels).
     """
     n_points = _check_n_points(n_points)
     source_pixels = _inside_mask(source_rgb, source_mask, "source_rgb", "source_mask")
@@ -132,6 +153,9 @@ def fit_histogram_match(source_rgb, reference_rgb, source_mask=None, reference_m
     channel_luts = tuple(
         _match_checked(source_pixels[:, channel], reference_pixels[:, channel], n_points) for channel in range(3)
     )
+    if max_slope is not None:
+        channel_luts = tuple((lut_x, limit_slope(lut_x, lut_y, source_pixels[:, channel], max_slope))
+                             for channel, (lut_x, lut_y) in enumerate(channel_luts))
     channel_mapped = np.stack(
         [apply_lut(source_pixels[:, channel], *channel_luts[channel]) for channel in range(3)], axis=-1
     ).astype(np.float64)

@@ -263,36 +263,49 @@ def _lipstick() -> RendererSpec:
 
 
 def _hair() -> RendererSpec:
+    from .hair import GLOBAL_CONTRAST_GAIN, LOCAL_CONTRAST_GAIN, LOCAL_RADIUS  # the tooltip quotes the stage's maths
+
     sw, non = "swatch", "non-swatch"
     p = ParamSpec
+    # Swatch steps run in this order on display values: (x - 0.5) * contrast + 0.5 + brightness, * exposure, clamp to
+    # [0, 1], ^(1/gamma), hue shift, saturation, clamp (vto_core.colour.recolour_swatch). Each tooltip says which
+    # Blender compositor node setting gives the same step (checked exactly in tests/blender_addon/test_hair_stage.py).
     return RendererSpec(
         "hair",
         (
             p("brightness", "Brightness", -0.3, 0.3, 0.0, "", sw,
-              description="Added to the swatch's values (0 = unchanged). Unlike Blender's Bright/Contrast node, a "
-                          "plain offset in display values"),
+              description="Swatch brightness: added to every value after the contrast step (0 = unchanged). "
+                          "Blender's Brightness/Contrast node adds its Brightness before the contrast: this equals "
+                          "that node with Brightness = 100 x brightness / contrast"),
             p("contrast", "Contrast", 0.5, 2.0, 1.0, "factor", sw,
-              description="Swatch contrast: values scaled about mid-grey 0.5 (1 = unchanged). Unlike Blender's "
-                          "Bright/Contrast node, a factor, not -100..100"),
+              description="Swatch contrast: values scaled about mid-grey 0.5 by this factor (1 = unchanged). "
+                          "Blender's Brightness/Contrast node with Contrast = 100 (1 - 1/c) for c >= 1, "
+                          "100 (c - 1) below"),
             p("exposure", "Exposure", 0.5, 2.0, 1.0, "factor", sw,
-              description="Swatch gain: values multiplied by this (1 = unchanged). Blender's Exposure node uses "
-                          "stops: this is its 2^stops"),
+              description="Swatch gain: values multiplied by this factor, then clamped to [0, 1] (1 = unchanged). "
+                          "Not stops: Blender's Exposure node with Exposure = log2(factor)"),
             p("gamma", "Gamma", 0.5, 3.0, 1.0, "", sw,
-              description="Swatch gamma: y = x^(1/gamma), >1 lightens (1 = unchanged). The inverse of Blender's "
-                          "Gamma node (y = x^gamma)"),
+              description="Swatch gamma: y = x^(1/gamma), so above 1 lightens and below 1 darkens (1 = unchanged). "
+                          "The inverse of Blender's Gamma node (y = x^gamma): that node with Gamma = 1/gamma"),
             p("hue", "Hue", 0.0, 1.0, 0.0, "turns", sw, wraps=True,
-              description="Swatch hue shift in turns, wrapping (0 and 1 = unchanged). Blender's Hue/Saturation "
-                          "node's Hue is this + 0.5"),
+              description="Swatch hue shift in turns, wrapping (0 and 1 = unchanged, 0.5 = opposite colour). "
+                          "Blender's Hue/Saturation/Value node centres Hue on 0.5: its Hue = this + 0.5"),
             p("saturation", "Saturation", 0.0, 3.0, 1.0, "factor", sw,
-              description="Swatch saturation factor, as Blender's Hue/Saturation node (0 = grey, 1 = unchanged)"),
+              description="Swatch saturation factor (0 = grey, 1 = unchanged), as Blender's Hue/Saturation/Value "
+                          "node's Saturation; the result is clamped to [0, 1]"),
             p("blend", "Blend", -1.0, 1.0, -1.0, "", non,
-              description="Faded look: where the colour starts down the hair, fading in over half its height "
-                          "(-1 = all the hair, 0 = from a quarter down, 1 = none)"),
+              description="Faded look: how far down the hair the new colour starts. It fades in over half the "
+                          "hair's height from (1 + 3 blend) / 4 of the way down: -1 colours all the hair, 0 starts "
+                          "a quarter down, 1 colours none; every step in between colours less"),
             p("intensity", "Intensity", 0.0, 1.0, 1.0, "", non,
-              description="Strength of the colour change (0 = the hair's own colour, 1 = the full new colour)"),
+              description="Strength of the colour change: a mix between the hair's own pixels (0) and the "
+                          "recoloured ones (1)"),
             p("shine", "Shine", 0.0, 1.0, 0.0, "", non,
-              description="Global and local contrast of the recoloured hair: an S-curve plus an unsharp mask that "
-                          "brings out the strands (0 = none)"),
+              description="Global and local contrast of the recoloured hair (0 = none). Global: an S-curve about "
+                          f"mid-grey, y + {GLOBAL_CONTRAST_GAIN:g} shine (smoothstep(y) - y), which darkens values "
+                          f"under 0.5 and brightens those over (above shine {1 / GLOBAL_CONTRAST_GAIN:g} the darkest "
+                          f"clip to black); local: + {LOCAL_CONTRAST_GAIN:g} shine (y - blur(y)), a Gaussian blur of "
+                          f"radius {100 * LOCAL_RADIUS:g} % of the image width, which lifts the strands' highlights"),
         ),
     )
 

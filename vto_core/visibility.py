@@ -17,8 +17,7 @@ _LOOKS = {"lipstick": {"opacity": 1.0}, "hair": {}}
 # can still learn them from the whole lips or hair, but not every 4x4 block shows them. `vto spec` names them.
 BELOW_BAR = {
     "lipstick": {"gloss_roughness": (2.36, "a rough or a sharp coat spreads the same light differently")},
-    "hair": {"saturation": (2.67, "histogram matching to the swatch flattens saturation changes"),
-             "shine": (2.25, "contrast amplifies the source's own render noise along with the change")},
+    "hair": {},
 }
 _CONTEXT = {"sparkle": {"sparkle_density": 0.5, "sparkle_intensity": 0.75}, "gloss_roughness": {"gloss": 2.0}}
 

@@ -1,11 +1,13 @@
 """Numpy reference of the hair stage: gradient, shine, faded look, curves as Blender tabulates them."""
 
+import warnings
+
 import numpy as np
 import pytest
 
 from vto_core.errors import VtoError
-from vto_core.hair import (CURVE_TABLE_POINTS, apply_curves_node, apply_hair_stage, blend_weight, blur_radius,
-                           gaussian_blur, hair_gradient, render_hair_reference, shine)
+from vto_core.hair import (CURVE_TABLE_POINTS, MAX_LUT_SLOPE, apply_curves_node, apply_hair_stage, blend_weight,
+                           blur_radius, fit_hair_match, gaussian_blur, hair_gradient, render_hair_reference, shine)
 from vto_core.histogram import HistogramMatch
 from vto_core.specs import get_spec
 
@@ -89,3 +91,75 @@ def test_stage_leaves_pixels_outside_the_mask_and_checks_shapes():
     assert np.abs(out[mask == 1] - source[mask == 1]).mean() > 0.01
     with pytest.raises(VtoError, match="differ in size"):
         apply_hair_stage(source, mask[:8], hair_gradient(mask), None, values)
+
+
+def _hair_scene(seed=2, size=24):
+    """A small synthetic source: brownish noisy hair in the top two thirds (mask), a grey backdrop, a swatch."""
+    generator = np.random.default_rng(seed)
+    source = np.clip(generator.normal([0.35, 0.25, 0.15], 0.08, (size, size, 3)), 0, 1).astype(np.float32)
+    mask = np.zeros((size, size), np.float32)
+    mask[2: 2 * size // 3, 4:-4] = 1
+    source[mask == 0] = 0.5
+    swatch = np.clip(generator.normal([0.2, 0.13, 0.07], 0.1, (16, 16, 3)), 0, 1)
+    return source, mask, swatch
+
+
+def test_reference_blend_colours_less_hair_at_every_step_of_its_range():
+    source, mask, swatch = _hair_scene()
+    hair = mask > 0.5
+    change = [np.abs(render_hair_reference(source, mask, swatch, get_spec("hair").full_values(
+        {"blend": b, "hue": 0.5})) - source)[hair].mean() for b in np.linspace(-1, 1, 11)]
+    assert np.all(np.diff(change) < -1e-3), np.round(change, 4)
+    assert change[-1] == 0.0 and change[0] > 0.05
+
+
+def test_reference_hue_wraps():
+    source, mask, swatch = _hair_scene()
+    spec = get_spec("hair")
+    low, high, half = (render_hair_reference(source, mask, swatch, spec.full_values({"hue": h, "saturation": 2.0}))
+                       for h in (0.001, 0.999, 0.5))
+    assert np.abs(low - high).max() < 3 / 255
+    assert np.abs(low - half).max() > 50 / 255
+
+
+def test_hair_match_slopes_are_capped():
+    source, mask, swatch = _hair_scene()
+    swatch[:1] = 1.0  # a few specular pixels: a sparse bright tail the uncapped match would stretch noise over
+    match = fit_hair_match(source, mask, swatch)
+    for lut_x, lut_y in match.channel_luts:
+        assert np.max(np.diff(lut_y) / np.diff(lut_x)) <= MAX_LUT_SLOPE + 1e-3
+        assert np.all(np.diff(lut_y) >= 0)
+
+
+EXTREME_LOOKS = [{p.name: getattr(p, end)} for p in get_spec("hair").params for end in ("low", "high")] + [
+    {p.name: p.low for p in get_spec("hair").params}, {p.name: p.high for p in get_spec("hair").params}]
+
+
+@pytest.mark.parametrize("case", ["noisy", "empty mask", "constant", "hdr", "black", "white"])
+def test_every_range_end_stays_finite_on_awkward_inputs(case):
+    source, mask, swatch = _hair_scene()
+    if case == "empty mask":
+        mask[:] = 0
+    elif case == "constant":
+        source[:] = 0.4
+    elif case == "hdr":
+        source = source * 40.0  # scene-referred values far above display white
+    elif case in ("black", "white"):
+        source[:] = 0.0 if case == "black" else 1.0
+        swatch[:] = 0.0 if case == "black" else 1.0
+    spec = get_spec("hair")
+    for look in EXTREME_LOOKS:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the empty mask warns once per fit
+            out = render_hair_reference(source, mask, swatch, spec.full_values(look))
+        assert out.shape == source.shape and np.isfinite(out).all(), look
+        assert out.min() >= 0.0 and out.max() <= 1.0, look
+        outside = mask < 0.5
+        assert np.array_equal(out[outside], np.clip(source, 0, 1)[outside]), look
+
+
+def test_non_finite_source_is_refused():
+    source, mask, swatch = _hair_scene()
+    source[0, 0, 1] = np.nan  # outside the hair, but the whole image goes through the stage
+    with pytest.raises(VtoError, match="NaN or inf"):
+        render_hair_reference(source, mask, swatch, get_spec("hair").full_values({}))

@@ -10,7 +10,7 @@ from hypothesis.extra.numpy import arrays
 
 from vto_core.colour import luminance
 from vto_core.errors import VtoError
-from vto_core.histogram import HistogramMatch, apply_lut, fit_histogram_match, match_lut
+from vto_core.histogram import HistogramMatch, apply_lut, fit_histogram_match, limit_slope, match_lut
 
 fast = settings(max_examples=60, deadline=None)
 # Includes HDR and negative values, which are clipped to [0, 1] before matching.
@@ -257,3 +257,43 @@ def test_non_finite_pixels_inside_mask_raise(bad_input):
     images[bad_input][3, 4, 0] = np.inf
     with pytest.raises(VtoError, match=bad_input):
         fit_histogram_match(images["source"], images["reference"])
+
+
+def test_limit_slope_caps_steps_and_keeps_the_mapped_mean():
+    lut_x = np.linspace(0.0, 1.0, 11)
+    lut_y = np.array([0.1, 0.12, 0.14, 0.16, 0.18, 0.2, 0.22, 0.24, 0.26, 0.9, 0.95])  # one step of slope 6.4
+    source = rng().uniform(0.0, 1.0, 5000)
+    capped = limit_slope(lut_x, lut_y, source, 2.0)
+    assert capped.dtype == np.float32
+    assert np.diff(capped).max() <= 2.0 * 0.1 + 1e-6
+    assert np.diff(capped)[8] == pytest.approx(0.2, abs=1e-6)  # the steep step is cut to the cap
+    assert np.diff(capped)[:8] == pytest.approx(np.diff(lut_y)[:8], abs=1e-6)  # gentle steps are kept
+    mapped_mean = np.mean(np.interp(source, lut_x, lut_y))
+    assert np.mean(np.interp(source, lut_x, capped)) == pytest.approx(mapped_mean, abs=1e-5)
+    assert np.max(np.abs(capped - lut_y)) > 0.1  # the cap did change the curve, so the checks above can fail
+
+
+def test_limit_slope_leaves_a_gentle_lut_alone_and_stays_in_range():
+    lut_x = np.linspace(0.0, 1.0, 9)
+    gentle = np.sqrt(lut_x) * 0.5 + 0.2
+    source = rng(1).uniform(0.3, 1.0, 300)
+    np.testing.assert_allclose(limit_slope(lut_x, gentle, source, 100.0), gentle, atol=1e-6)
+    # A step LUT near the top: capping then shifting up must still clip into [0, 1] and stay monotone.
+    step = np.where(lut_x < 0.5, 0.0, 1.0)
+    assert_monotone_in_unit_range(limit_slope(lut_x, step, np.full(10, 0.9), 1.0))
+    assert_monotone_in_unit_range(limit_slope(lut_x, step, np.array([]), 1.0))
+    with pytest.raises(VtoError, match="max_slope"):
+        limit_slope(lut_x, gentle, source, 0.0)
+
+
+def test_fit_with_max_slope_caps_every_channel_lut():
+    source, reference = make_image_pair(3)
+    reference[:4] = 1.0  # a sparse bright tail in the reference makes the top of each LUT steep
+    free = fit_histogram_match(source, reference, n_points=32, match_gray=False)
+    capped = fit_histogram_match(source, reference, n_points=32, match_gray=False, max_slope=3.0)
+    steepest = [np.max(np.diff(lut_y) / np.diff(lut_x)) for lut_x, lut_y in free.channel_luts]
+    assert max(steepest) > 3.0
+    for lut_x, lut_y in capped.channel_luts:
+        assert np.max(np.diff(lut_y) / np.diff(lut_x)) <= 3.0 + 1e-3
+        assert_monotone_in_unit_range(lut_y)
+    np.testing.assert_array_equal(capped.gray_lut[1], capped.gray_lut[0])  # match_gray=False: identity gray
