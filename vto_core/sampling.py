@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import cached_property
+from statistics import NormalDist
 
 import numpy as np
 
@@ -12,10 +15,13 @@ from .specs import RendererSpec
 # Streams of one sample's random numbers, so adding a use never shifts another's draws.
 _STREAM_MIXTURE, _STREAM_SENSITIVITY = 0, 1
 # Gibbs sweeps per draw. In whitened coordinates the target is isotropic, so the chain only has to forget its start
-# (the clipped mean): on the full 17-parameter lipstick fit the marginal means and standard deviations of 2,000
-# draws stop moving (within 0.01) after 4 sweeps; 6 leave a margin at a few ms per draw.
+# (the clipped mean). Worst case, the full 17-parameter lipstick fit (the box holds 1.2 % of the normal's mass):
+# against a 300,000-draw rejection reference, 10,000 draws miss the marginal means by 0.042, 0.019, 0.007, 0.004
+# after 1-4 sweeps (KS distance 0.31, 0.07, 0.027, 0.015), and from 4 sweeps on sit at the noise of an exact sample
+# of that size (0.003, KS 0.015). The error shrinks ~2.5x a sweep, so 6 leaves ~5e-4; measured at ~1 ms a draw.
 _GIBBS_SWEEPS = 6
 _INSIDE = 1e-9  # the start is moved this far inside the box
+_SQRT_HALF, _LOG_2, _STANDARD_NORMAL = math.sqrt(0.5), math.log(2.0), NormalDist()
 
 
 @dataclass(frozen=True)
@@ -41,51 +47,77 @@ class PresetNormal:
         cov = np.atleast_2d(np.cov(centred, rowvar=False)) + jitter * np.eye(spec.size)
         return cls(mean, np.linalg.cholesky(cov), wraps)
 
+    @cached_property
+    def _chain(self) -> tuple[list[float], list[float], list[list[tuple[int, float, bool]]]]:
+        """Gibbs start (x, z) and, per column k of L, its non-zero rows as (row, value, row is boxed)."""
+        x = np.where(self.wraps, self.mean, np.clip(self.mean, _INSIDE, 1 - _INSIDE))
+        z = np.linalg.solve(self.cholesky, x - self.mean)
+        columns = [[(i, float(c), not self.wraps[i]) for i, c in enumerate(self.cholesky[:, k]) if abs(c) > 1e-12]
+                   for k in range(self.mean.size)]
+        return x.tolist(), z.tolist(), columns
+
     def draw(self, rng: np.random.Generator) -> np.ndarray:
         """One draw from the normal truncated to the unit box (wrapping dimensions free, taken mod 1): (m,).
 
         Gibbs sampling in whitened coordinates z (x = mean + L z, z ~ N(0, I) restricted to the box): each z_k in
         turn is drawn from a standard normal truncated to the interval the box allows given the others. The
-        chain stays inside the box, so nothing is clipped and correlations are kept.
+        chain stays inside the box, so nothing is clipped and correlations are kept. Scalar Python arithmetic:
+        numpy's per-call cost would dominate at this size.
         """
-        box = ~self.wraps
-        x = np.where(box, np.clip(self.mean, _INSIDE, 1 - _INSIDE), self.mean)
-        z = np.linalg.solve(self.cholesky, x - self.mean)
-        for _ in range(_GIBBS_SWEEPS):
-            for k in range(z.size):
-                column = self.cholesky[:, k]
-                rest = x - column * z[k]  # x without z_k's share
-                low, high = _interval(rest[box], column[box])
-                z[k] = truncated_standard_normal(rng, low, high)
-                x = rest + column * z[k]
+        start_x, start_z, columns = self._chain
+        x, z = list(start_x), list(start_z)
+        uniforms = rng.random((_GIBBS_SWEEPS, len(z))).tolist()
+        for sweep in uniforms:
+            for k, column in enumerate(columns):
+                low, high = -math.inf, math.inf  # the step d with 0 <= x_i + c_i d <= 1 on every boxed row
+                for i, c, boxed in column:
+                    if boxed:
+                        to_zero, to_one = -x[i] / c, (1.0 - x[i]) / c
+                        if c < 0:
+                            to_zero, to_one = to_one, to_zero
+                        low, high = (to_zero if to_zero > low else low), (to_one if to_one < high else high)
+                step = truncated_standard_normal(sweep[k], z[k] + low, z[k] + high) - z[k]
+                z[k] += step
+                for i, c, _ in column:
+                    x[i] += c * step
+        x = np.array(x)
+        # The clip only absorbs rounding (~1e-16); the chain itself never leaves the box.
         return np.where(self.wraps, x % 1.0, np.clip(x, 0.0, 1.0))
 
 
-def _interval(rest: np.ndarray, column: np.ndarray) -> tuple[float, float]:
-    """The t with 0 <= rest + column * t <= 1 for every element: (low, high)."""
-    moving = np.abs(column) > 1e-12
-    if not moving.any():
-        return -np.inf, np.inf
-    rest, column = rest[moving], column[moving]
-    to_zero, to_one = -rest / column, (1.0 - rest) / column
-    rising = column > 0
-    low = float(np.where(rising, to_zero, to_one).max())
-    high = float(np.where(rising, to_one, to_zero).min())
-    return low, max(low, high)
-
-
-def truncated_standard_normal(rng: np.random.Generator, low: float, high: float) -> float:
-    """One draw of N(0, 1) restricted to [low, high], by inverse CDF in log space (exact far in the tails)."""
-    from scipy.special import log_ndtr, ndtri_exp
-
+def truncated_standard_normal(u: float, low: float, high: float) -> float:
+    """N(0, 1) restricted to [low, high] from one uniform u in [0, 1): inverse CDF in log space, exact far in the
+    tails. Within the lower tail (low <= 0) this is the quantile u; above it, minus the quantile u of the mirror."""
     if low > 0:  # work in the lower tail, where log Phi keeps its precision
-        return -truncated_standard_normal(rng, -high, -low)
-    log_low, log_high = log_ndtr(low), log_ndtr(high)
-    if log_high - log_low < 1e-300:
-        return float(np.clip(low, low, high))
-    log_mass = log_high + np.log1p(-np.exp(log_low - log_high))
-    log_u = np.logaddexp(log_low, np.log(max(rng.random(), 1e-300)) + log_mass)
-    return float(np.clip(ndtri_exp(min(log_u, log_high)), low, high))
+        return -truncated_standard_normal(u, -high, -low)
+    log_low, log_high = _log_phi(low), _log_phi(high)
+    if not log_low < log_high:  # an empty or numerically zero-width window
+        return min(low, high)
+    # log(Phi(low) + u (Phi(high) - Phi(low))), never forming the probabilities themselves
+    log_step = math.log(max(u, 1e-300)) + log_high + math.log(-math.expm1(log_low - log_high))
+    top, bottom = max(log_low, log_step), min(log_low, log_step)
+    log_u = top + math.log1p(math.exp(bottom - top)) if bottom > -math.inf else top
+    return min(max(_phi_inverse_of_log(log_u), low), high)
+
+
+def _log_phi(x: float) -> float:
+    """log Phi(x) of the standard normal CDF, finite for every finite x."""
+    if x > -37.0:  # Phi(-37) = 6e-300 is still a normal float; erfc keeps its relative precision down to there
+        return math.log(0.5 * math.erfc(-x * _SQRT_HALF))
+    from scipy.special import log_ndtr
+
+    return float(log_ndtr(x))
+
+
+def _phi_inverse_of_log(log_p: float) -> float:
+    """x with log Phi(x) = log_p <= 0, finite for every finite log_p (|x| <= 37 above log_p = -690)."""
+    if log_p > -_LOG_2:  # upper half: invert the complement 1 - p, which keeps its precision there
+        return -_STANDARD_NORMAL.inv_cdf(max(-math.expm1(log_p), 1e-300))
+    if log_p > -690.0:  # p > 1e-300
+        return _STANDARD_NORMAL.inv_cdf(math.exp(log_p))
+    from scipy.special import ndtri_exp
+
+    return float(ndtri_exp(log_p))
 
 
 def _wrap_offset(delta: np.ndarray) -> np.ndarray:

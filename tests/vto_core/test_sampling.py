@@ -1,11 +1,12 @@
-"""Sampler: determinism per (seed, index), range coverage, the fit on presets."""
+"""Sampler: determinism per (seed, index), range coverage, the fit on presets, the exact truncated normal."""
 
 import numpy as np
 import pytest
+from scipy.stats import truncnorm
 
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
-from vto_core.sampling import ParamSampler, PresetNormal
+from vto_core.sampling import ParamSampler, PresetNormal, truncated_standard_normal
 from vto_core.specs import get_spec
 
 
@@ -47,7 +48,8 @@ def test_samples_stay_in_range_and_cover_it():
 
 
 def test_uniform_ratio_one_is_uniform():
-    unit = np.stack([make("hair", ratio=1.0).sample_unit(i) for i in range(2000)])
+    sampler = make("hair", ratio=1.0)
+    unit = np.stack([sampler.sample_unit(i) for i in range(2000)])
     assert np.allclose(unit.mean(0), 0.5, atol=0.03)
     assert np.allclose(unit.std(0), np.sqrt(1 / 12), atol=0.02)
 
@@ -127,3 +129,53 @@ def test_full_lipstick_fit_needs_no_clipping_and_far_tails_stay_finite():
     tail = np.stack([far.draw(np.random.default_rng(i)) for i in range(20)])
     assert np.isfinite(tail).all() and (tail >= 0).all() and (tail <= 1).all()
     assert tail[:, 0].min() > 0.99 and tail[:, 1].max() < 0.01
+
+
+def test_truncated_standard_normal_is_scipys_inverse_cdf_even_1300_sigma_out():
+    windows = [(-1, 2), (0.5, 0.6), (10, 11), (-12, -10), (40, np.inf), (-np.inf, -38), (1300, 1301), (-1301, -1300)]
+    for low, high in windows:
+        for u in (0.0, 0.1, 0.5, 0.9, 1 - 1e-16):
+            got = truncated_standard_normal(u, low, high)
+            assert np.isfinite(got) and low <= got <= high, (low, high, u, got)
+            if 0 < u < 1:  # above zero the mirror's quantile u is used: the quantile 1 - u
+                expected = truncnorm.ppf(u if low <= 0 else 1 - u, low, high)
+                assert abs(got - expected) < 1e-9 * (1 + abs(expected)), (low, high, u, got, expected)
+    for low, high in ((3.0, 3.0), (-1e-14, 1e-14), (2.0, 2.0 - 1e-15), (-np.inf, np.inf)):  # degenerate and open
+        assert all(np.isfinite(truncated_standard_normal(u, low, high)) for u in (0.0, 0.5, 1 - 1e-16))
+
+
+def test_one_dimensional_draws_follow_scipys_truncnorm():
+    mean, sd = 0.9, 0.3  # truncation removes 37 % of the mass, most of it above 1
+    normal = PresetNormal(np.array([mean]), np.array([[sd]]), np.array([False]))
+    draws = np.array([normal.draw(np.random.default_rng([4, i]))[0] for i in range(4000)])
+    exact = truncnorm((0 - mean) / sd, (1 - mean) / sd, loc=mean, scale=sd)
+    assert abs(draws.mean() - exact.mean()) < 0.01 and abs(draws.var() - exact.var()) < 0.005
+    assert abs(exact.mean() - mean) > 0.1  # the case is one where truncation matters
+    ordered = np.sort(draws)
+    ks = np.abs(exact.cdf(ordered) - np.arange(1, ordered.size + 1) / ordered.size).max()
+    assert ks < 0.03, ks  # 99 % critical value at n = 4,000 is 0.026
+    assert 0 < draws.min() and draws.max() < 1
+
+
+def test_draw_is_a_pure_function_of_its_generator():
+    spec = get_spec("hair")
+    normal = PresetNormal.fit(spec, preset_matrix(spec, load_presets("hair")))
+    first = [normal.draw(np.random.default_rng([6, i])) for i in range(5)]
+    again = [normal.draw(np.random.default_rng([6, i])) for i in reversed(range(5))][::-1]
+    assert np.array_equal(np.stack(first), np.stack(again))
+    assert not np.allclose(first[0], first[1])
+
+
+def test_hue_stays_on_the_circle_and_is_not_truncated():
+    """Hue centred at 0.98 with sd 0.05: its draws wrap past 1 to small values instead of piling up at 1."""
+    draws = {}
+    for centre in (0.98, 2.98):  # a whole number of turns changes nothing
+        normal = PresetNormal(np.array([centre, 0.5]), np.diag([0.05, 0.1]), np.array([True, False]))
+        draws[centre] = np.stack([normal.draw(np.random.default_rng([5, i])) for i in range(3000)])
+    hue = draws[0.98][:, 0]
+    assert (hue >= 0).all() and (hue < 1).all()
+    assert abs((hue < 0.5).mean() - 0.3446) < 0.03  # P(N(0.98, 0.05) > 1) = Phi(-0.4)
+    offset = (hue - 0.98 + 0.5) % 1.0 - 0.5
+    assert abs(offset.std() - 0.05) < 0.003 and abs(offset.mean()) < 0.004
+    turned = (draws[2.98] - draws[0.98] + 0.5) % 1.0 - 0.5
+    assert np.abs(turned).max() < 1e-9
