@@ -1,59 +1,133 @@
-"""The speed-accuracy trade at match time, measured in one run: presets, encoder, render-search refinement."""
+"""The speed-accuracy trade at match time, measured in one `vto eval` run on one machine (issue 9, item 5).
+
+Methods: mean preset, nearest preset, encoder, encoder + imitator K, encoder + render search B, render search from
+the mean preset. Writes speed_accuracy.md (table, machine) and speed_accuracy.png (the Pareto front) into --results.
+
+    .venv/bin/python -m benchmarks.bench_speed_accuracy --model M.onnx --imitator RUN [--n 24] [--res 64]
+"""
 
 from __future__ import annotations
 
+import argparse
 import os
 import platform
-import sys
 import tempfile
+import time
 from pathlib import Path
 
-from benchmarks.common import RESULTS, write_table
-from blender_addon.evaluate import EvalSettings, run_eval
-
-MODEL = Path(__file__).resolve().parent.parent / "blender_addon" / "models" / "lipstick_encoder.onnx"
+from benchmarks.common import RESULTS
 
 
-def main(model: str = str(MODEL), n: int = 8) -> None:
-    """Transfer PSNR/SSIM and wall ms per reference of each method; writes speed_accuracy.md and .png."""
-    with tempfile.TemporaryDirectory() as folder:
-        summary = run_eval(model, folder, EvalSettings(n=n, refine=(25, 100), search_from_mean=(400,)))
-    rows = sorted(([m, f"{s['ms_per_reference']:.0f}", f"{s['psnr_mean']:.2f}", f"{s['ssim_mean']:.4f}"]
-                   for m, s in summary.items()), key=lambda row: float(row[1]))
+def machine() -> str:
+    """CPU model, cores, Python, Blender and torch versions, in one line."""
     cpu = platform.processor() or platform.machine()
-    write_table("speed_accuracy", "Match-time speed and accuracy (transfer experiment, 64 px, 16 spp)",
-                ["method", "ms per reference", "transfer PSNR dB", "SSIM"], rows,
-                f"{n} sampled looks, model {Path(model).name}; {cpu}, {os.cpu_count()} cores, Cycles on the CPU. "
-                "Nearest preset includes rendering every preset on the reference's source. "
-                "Reproduce: `.venv/bin/python -m benchmarks.bench_speed_accuracy [MODEL] [N]`.")
-    _plot(summary)
+    try:
+        cpu = next(line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                   if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    import bpy
+    import torch
+
+    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else "?"
+    return (f"{cpu}, {os.cpu_count()} cores ({usable} usable), {platform.system()}; Python "
+            f"{platform.python_version()}, Blender {bpy.app.version_string} (Cycles on the CPU), torch "
+            f"{torch.__version__} ({torch.get_num_threads()} threads)")
 
 
-def _plot(summary: dict) -> None:
+def pareto(points: list[tuple[float, float, str]]) -> list[tuple[float, float, str]]:
+    """The (ms, psnr, name) points no other point beats on both time and PSNR, fastest first."""
+    front, best = [], float("-inf")
+    for point in sorted(points, key=lambda p: (p[0], -p[1])):
+        if point[1] > best:
+            front.append(point)
+            best = point[1]
+    return front
+
+
+def run(model: str, imitator: str | None, n: int, res: int, samples: int, seed: int, steps: list[int],
+        budgets: list[int], from_mean: list[int], results: Path) -> Path:
+    """One eval with every method; the table and the plot land in `results`; returns the table's path."""
+    from training.evaluate import EvalSettings, run_eval
+
+    refine = ([f"imitator:{k}" for k in steps] if imitator else []) + [f"render:{b}" for b in budgets]
+    settings = EvalSettings(n, res, samples, seed, tuple(refine), tuple(from_mean), imitator)
+    started = time.perf_counter()
+    with tempfile.TemporaryDirectory() as folder:
+        summary = run_eval(model, folder, settings)
+    minutes = (time.perf_counter() - started) / 60
+    front = {name for _, _, name in pareto([(s["ms_per_reference"], s["psnr"][0], m) for m, s in summary.items()])}
+    rows = sorted(summary.items(), key=lambda item: item[1]["ms_per_reference"])
+    lines = ["# Match-time speed and accuracy (transfer experiment)", "",
+             f"Machine: {machine()}.", "",
+             f"`vto eval` of {Path(model).name}" + (f" with imitator {Path(imitator).name}" if imitator else "") +
+             f": {n} sampled looks (eval seed {seed}), {res} px, {samples} spp; written "
+             f"{time.strftime('%Y-%m-%d %H:%M')}, {minutes:.1f} min in all.", "",
+             "| method | ms per reference | transfer PSNR dB (mean ± std) | gain over mean preset dB | SSIM "
+             "| Pareto |",
+             "|---|---|---|---|---|---|"]
+    lines += [f"| {m} | {s['ms_per_reference']:.1f} | {s['psnr'][0]:.2f} ± {s['psnr'][1]:.2f} | "
+              f"{s['gain_over_mean_preset_db']:+.2f} | {s['ssim'][0]:.4f} | {'yes' if m in front else ''} |"
+              for m, s in rows]
+    lines += ["", "ms per reference: from the reference image to the estimate. The nearest preset renders every preset "
+                  "on the reference's source; render search counts its renders there (B, plus the hair source render "
+                  "for hair); imitator refinement counts rendering the bare source X and K Adam steps on the CPU.",
+              "", "Reproduce: `.venv/bin/python -m benchmarks.bench_speed_accuracy --model " + model +
+              (f" --imitator {imitator}" if imitator else "") + f" --n {n} --res {res} --samples {samples} --seed "
+              f"{seed} --steps {','.join(map(str, steps))} --budgets {','.join(map(str, budgets))} --from-mean "
+              f"{','.join(map(str, from_mean))}`."]
+    results.mkdir(parents=True, exist_ok=True)
+    table = results / "speed_accuracy.md"
+    table.write_text("\n".join(lines) + "\n")
+    plot(summary, front, results / "speed_accuracy.png")
+    print("\n".join(lines))
+    return table
+
+
+def plot(summary: dict, front: set[str], path: Path) -> None:
+    """Transfer PSNR against ms per reference (log), the Pareto front as a dashed staircase."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    points = sorted((max(s["ms_per_reference"], 0.01), s["psnr_mean"], m) for m, s in summary.items())
-    front, best = [], float("-inf")
-    for ms, psnr, _ in points:
-        if psnr > best:
-            front.append((ms, psnr))
-            best = psnr
-    figure, axis = plt.subplots(figsize=(6.5, 4))
+    points = sorted((max(s["ms_per_reference"], 0.01), s["psnr"][0], m) for m, s in summary.items())
+    figure, axis = plt.subplots(figsize=(7, 4.2))
     for ms, psnr, name in points:
-        axis.scatter(ms, psnr)
+        axis.scatter(ms, psnr, color="k" if name in front else "0.6")
         axis.annotate(name, (ms, psnr), fontsize=7, xytext=(4, 2), textcoords="offset points")
-    axis.plot(*zip(*front), "k--", linewidth=0.8, label="Pareto front")
+    axis.plot(*zip(*[(ms, psnr) for ms, psnr, name in points if name in front]), "k--", linewidth=0.8,
+              drawstyle="steps-post", label="Pareto front")
     axis.set_xscale("log")
-    axis.set_xlabel("wall ms per reference (log)")
+    axis.set_xlabel("wall ms per reference (log; the mean preset drawn at 0.01)")
     axis.set_ylabel("transfer PSNR (dB)")
     axis.legend()
     figure.tight_layout()
-    figure.savefig(RESULTS / "speed_accuracy.png", dpi=110)
+    figure.savefig(path, dpi=110)
     plt.close(figure)
 
 
+def main(argv: list[str] | None = None) -> None:
+    """Command line: see the module docstring."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", required=True, help="encoder .onnx")
+    parser.add_argument("--imitator", default=None, help="imitator run (for the imitator:K rows)")
+    parser.add_argument("--n", type=int, default=24)
+    parser.add_argument("--res", type=int, default=64)
+    parser.add_argument("--samples", type=int, default=16)
+    parser.add_argument("--seed", type=int, default=777)
+    parser.add_argument("--steps", default="10,50", help="imitator refinement steps K")
+    parser.add_argument("--budgets", default="25,100", help="render search budgets B from the encoder")
+    parser.add_argument("--from-mean", default="400", help="render search budgets B from the mean preset")
+    parser.add_argument("--results", default=str(RESULTS), help="folder for speed_accuracy.md and .png")
+    args = parser.parse_args(argv)
+
+    def ints(text: str) -> list[int]:
+        return [int(v) for v in text.split(",") if v.strip()]
+
+    run(args.model, args.imitator, args.n, args.res, args.samples, args.seed, ints(args.steps), ints(args.budgets),
+        ints(args.from_mean), Path(args.results))
+
+
 if __name__ == "__main__":
-    main(*(sys.argv[1:2] or [str(MODEL)]), *([int(sys.argv[2])] if len(sys.argv) > 2 else []))
+    main()

@@ -1,7 +1,12 @@
-"""`vto match`: parameters from a reference image, the encoder's estimate optionally refined through the renderer.
+"""`vto match`: a renderer's parameters from a reference image; the encoder's estimate, optionally refined.
 
-Refinement compares renders of the reference's own source with the reference, so it needs that source: a seed
-of the default scene (`--source`), or for hair a photo with its `<name>_mask` beside it (the photo is its own
+Layering: this module needs onnxruntime (the encoder) and, for refinement, bpy (the renderer); it never imports torch
+or `training` at module level, because the extension ships without them. `--refine render:B` (CMA-ES through the
+real renderer, blender_addon.refine) runs anywhere bpy does, inside Blender too; `--refine imitator:K` imports
+training.refine inside the function and, where torch is missing (inside Blender), says so in one line.
+
+Refinement compares renders of the reference's own source with the reference, so it needs that source: a seed of
+the default scene (`--source SEED`), or for hair a photo with its `<name>_mask` beside it (the photo is its own
 source). Without one the encoder's estimate is the answer, and the command says so.
 """
 
@@ -20,20 +25,62 @@ from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.imageio import read_image, resize
 from vto_core.inference import EncoderSession
+from vto_core.specs import RendererSpec, get_spec
 
-from .commands import render
+from .refine import OBJECTIVES, SIGMA, SIGMA_FROM_MEAN, refine_by_render
+
+NO_SOURCE = "no source for the reference (--source): refinement skipped, the encoder's estimate stands"
 
 
 def parse_refine(text: str) -> tuple[str, int]:
-    """'none' | 'render:B' -> (kind, budget)."""
+    """'none' | 'imitator:K' | 'render:B' -> (kind, K or B)."""
     kind, _, amount = text.partition(":")
     if kind == "none" and not amount:
         return "none", 0
-    if kind == "render" and amount.isdigit() and int(amount) >= 1:
-        return "render", int(amount)
-    if kind == "imitator":
-        raise VtoError("--refine imitator:K is not built yet; use none or render:B")
-    raise VtoError(f"--refine takes none or render:B (B renders, >= 1), got '{text}'")
+    if kind in ("imitator", "render") and amount.isdigit() and int(amount) >= 1:
+        return kind, int(amount)
+    raise VtoError(f"--refine takes none, imitator:K (K >= 1 gradient steps) or render:B (B >= 1 renders), "
+                   f"got '{text}'")
+
+
+class SourceRenderer:
+    """R(X, .) on one fixed source X, at res px, `samples` spp and one Cycles seed: values -> (res, res, 3).
+
+    source: a default-scene seed (int or digits), or for hair a photo with its mask. The hair source is rendered
+    (or loaded) once here; `renders` counts the calls.
+    """
+
+    def __init__(self, renderer: str, source, res: int, samples: int = DEFAULT_SAMPLES, seed: int = 0):
+        self.spec = get_spec(renderer)
+        self.res, self.samples, self.seed, self.renders = res, samples, seed, 0
+        seed_like = isinstance(source, (int, np.integer)) or str(source).isdigit()
+        if renderer == "lipstick":
+            if not seed_like:
+                raise VtoError(f"lipstick sources are seeds of the default lips scene (an integer), got '{source}'")
+            self.source, self.hair = int(source), None
+        else:
+            from .hair import resolve_hair_source
+
+            if not seed_like and not Path(source).is_file():
+                raise VtoError(f"hair source {source} is neither a default-scene seed nor a photo")
+            self.source, self.hair = source, resolve_hair_source(source, res, samples, seed)
+
+    def __call__(self, values: dict[str, float]) -> np.ndarray:
+        values = self.spec.check_values(values)
+        self.renders += 1
+        if self.hair is None:
+            from .lipstick import render_lipstick
+
+            return render_lipstick(values, self.source, self.res, self.samples, self.seed)
+        from .hair import run_hair_stage
+
+        return run_hair_stage(self.hair, values)
+
+    def source_image(self) -> np.ndarray:
+        """X as the imitator sees it (the dataset's 'source'): the bare lips (opacity 0), or the hair source."""
+        if self.hair is None:
+            return self({"opacity": 0.0})
+        return self.hair.rgb
 
 
 def photo_source(image_path: Path) -> str | None:
@@ -41,64 +88,132 @@ def photo_source(image_path: Path) -> str | None:
     return str(image_path) if any(image_path.parent.glob(image_path.stem + "_mask.*")) else None
 
 
-def match(model: str, image_path: str, source: str | None = None, refine: str = "none", res: int = 64,
-          samples: int = DEFAULT_SAMPLES, seed: int = 0) -> dict:
-    """Estimate (and refine) the parameters of `image_path`: {'params', 'refined', 'note', timings}."""
+def load_reference(image_path: str) -> np.ndarray:
+    """The reference image (H, W, 3), NaN-free and clipped to [0, 1]; one-line errors for what cannot serve."""
+    if not os.path.isfile(image_path):
+        raise VtoError(f"no image at {image_path}")
+    reference, _ = read_image(image_path)
+    if reference.shape[0] < 8 or reference.shape[1] < 8:
+        raise VtoError(f"{image_path}: image is {reference.shape[1]}x{reference.shape[0]}; at least 8x8 is needed")
+    return np.clip(np.nan_to_num(reference, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+
+
+def at_size(image: np.ndarray, height: int, width: int) -> np.ndarray:
+    """(H, W, 3) -> (height, width, 3), unchanged when it already fits."""
+    return image if image.shape[:2] == (height, width) else resize(image, height, width)
+
+
+def imitator_refiner(spec: RendererSpec, imitator_run: str):
+    """training.refine.ImitatorRefiner for `spec` (imported here: it needs torch, which Blender's Python lacks)."""
+    try:
+        from training.refine import ImitatorRefiner
+    except ImportError as exc:
+        raise VtoError(f"--refine imitator:K needs torch and the training package ({exc.name} cannot be imported "
+                       "here, e.g. inside Blender); use --refine render:B, or run `vto match` where torch is") from None
+    return ImitatorRefiner(imitator_run, spec)
+
+
+def imitator_inputs(refiner, renderer: str, source, reference: np.ndarray, samples: int, seed: int):
+    """(X, reference) at the imitator's size: X rendered (or loaded) there, the reference resized."""
+    height, width = refiner.image_size
+    if height != width:
+        raise VtoError(f"the imitator works on {height}x{width} images; the default scenes render square ones")
+    x = SourceRenderer(renderer, source, height, samples, seed).source_image()
+    return x, at_size(reference, height, width)
+
+
+def match(model: str, image_path: str, source=None, refine: str = "none", imitator: str | None = None,
+          res: int | None = None, samples: int = DEFAULT_SAMPLES, seed: int = 0, objective: str = "mse",
+          start_at: str = "encoder") -> dict:
+    """Estimate (and refine) the parameters of `image_path`.
+
+    Returns {'renderer', 'params': all parameters (raw values), 'refined', 'note', 'encoder_ms'} and, when
+    refined, 'method', 'refine_ms', 'loss_start', 'loss' and 'renders' or 'steps'. res: the render size of render
+    search (default: the reference's own, which must then be square). start_at: refinement starts at the 'encoder'
+    estimate or the 'mean' preset.
+    """
+    kind, amount = parse_refine(refine)
+    if kind == "imitator" and not imitator:
+        raise VtoError("--refine imitator:K needs --imitator RUN (the imitator run the encoder was trained with)")
+    if start_at not in ("encoder", "mean"):
+        raise VtoError(f"--start takes encoder or mean, got '{start_at}'")
+    if objective not in OBJECTIVES:
+        raise VtoError(f"--objective takes {' or '.join(OBJECTIVES)}, got '{objective}'")
+    reference = load_reference(image_path)
     session = EncoderSession(model)
     spec = session.spec
-    kind, budget = parse_refine(refine)
-    reference, _ = read_image(image_path)
-    if reference.ndim != 3 or reference.shape[0] < 8 or reference.shape[1] < 8:
-        raise VtoError(f"{image_path}: image is {reference.shape[1]}x{reference.shape[0]}; at least 8x8 is needed")
-    start = time.perf_counter()
+    started = time.perf_counter()
     values = session.predict(reference)[0]
-    result = {"params": values, "refined": False, "note": "", "encoder_ms": 1000 * (time.perf_counter() - start)}
+    result = {"renderer": spec.renderer, "params": values, "refined": False, "note": "",
+              "encoder_ms": 1000 * (time.perf_counter() - started)}
     if kind == "none":
         return result
     if source is None and spec.renderer == "hair":
         source = photo_source(Path(image_path))
     if source is None:
-        result["note"] = "no source for the reference (--source): refinement skipped, the encoder's estimate stands"
+        result["note"] = NO_SOURCE
         return result
-    from .refine import refine_by_render
+    if start_at == "mean":
+        from vto_core.presets import load_presets, preset_matrix
 
-    target = resize(np.clip(np.nan_to_num(reference, nan=0.0), 0, 1), res, res) if reference.shape[:2] != (res, res) \
-        else np.clip(reference, 0, 1)
-    source = int(source) if str(source).isdigit() else source
-
-    def render_unit(unit):
-        return render(spec.renderer, spec.values(spec.denormalise(unit)), source, res, samples, seed)
-
-    start = time.perf_counter()
-    refined = refine_by_render(render_unit, target, spec.normalise(spec.vector(values)), budget, seed)
-    result.update(params=spec.values(spec.denormalise(refined.unit)), refined=True,
-                  refine_ms=1000 * (time.perf_counter() - start), renders=refined.renders,
-                  loss_start=refined.start_loss, loss=refined.loss)
+        start_unit = preset_matrix(spec, load_presets(spec.renderer)).mean(axis=0)
+    else:
+        start_unit = spec.normalise(spec.vector(values))
+    wraps = np.array([p.wraps for p in spec.modelled_params])
+    started = time.perf_counter()
+    if kind == "render":
+        if res is None:
+            if reference.shape[0] != reference.shape[1]:
+                raise VtoError(f"{image_path} is {reference.shape[1]}x{reference.shape[0]}; renders are square: pass "
+                               "--res R to compare at R x R")
+            res = reference.shape[0]
+        on_source = SourceRenderer(spec.renderer, source, res, samples, seed)
+        refined = refine_by_render(lambda u: on_source(spec.values(spec.denormalise(u))), at_size(reference, res, res),
+                                   start_unit, amount, seed, wraps, objective,
+                                   SIGMA_FROM_MEAN if start_at == "mean" else SIGMA)
+        result["renders"] = refined.renders
+    else:
+        refiner = imitator_refiner(spec, imitator)
+        refined = refiner.refine(*imitator_inputs(refiner, spec.renderer, source, reference, samples, seed),
+                                 start_unit, amount)
+        result["steps"] = refined.steps
+    result.update(params=spec.values(spec.denormalise(refined.unit)), refined=True, method=refine,
+                  refine_ms=1000 * (time.perf_counter() - started), loss_start=refined.start_loss, loss=refined.loss)
     return result
 
 
 def cmd_match(argv: list[str]) -> int:
-    """vto match --model M --image IMG [--source S] [--refine none|render:B] [--res] [--samples] --out-params FILE."""
+    """vto match --model M --image IMG [--source S] [--refine none|imitator:K|render:B] [--imitator RUN] --out-params F.
+
+    The same function serves `blender -b -c vto match`; there imitator:K ends in one line (no torch).
+    """
     parser = ArgumentParser(prog="vto match", description="estimate a renderer's parameters from a reference image")
     parser.add_argument("--model", required=True, help="an encoder exported with `vto export`")
     parser.add_argument("--image", required=True, help="the reference image")
     parser.add_argument("--source", default=None, help="the reference's source: a default-scene seed, or a hair "
                                                       "photo with a mask (default: the image itself, for hair)")
-    parser.add_argument("--refine", default="none", help="none (encoder only) or render:B (CMA-ES, B renders)")
-    parser.add_argument("--res", type=int, default=64, help="render size for refinement")
-    parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES)
+    parser.add_argument("--refine", default="none", help="none (encoder only), imitator:K (K gradient steps through "
+                                                         "the imitator, needs torch) or render:B (CMA-ES, B renders)")
+    parser.add_argument("--imitator", default=None, help="imitator run folder, for --refine imitator:K")
+    parser.add_argument("--res", type=int, default=None, help="render size of render search (default: the reference's)")
+    parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES, help="Cycles samples of refinement renders")
+    parser.add_argument("--seed", type=int, default=0, help="Cycles seed of every refinement render")
+    parser.add_argument("--objective", default="mse", choices=sorted(OBJECTIVES), help="render search: mse or 1-SSIM")
+    parser.add_argument("--start", default="encoder", choices=["encoder", "mean"],
+                        help="refinement starts at the encoder's estimate or at the mean preset")
     parser.add_argument("--out-params", required=True, help="JSON file for the estimate (takes `vto render --params`)")
     args = parser.parse_args(argv)
-    if not os.path.isfile(args.image):
-        raise VtoError(f"no image at {args.image}")
-    if not Path(args.out_params).resolve().parent.is_dir():
-        raise VtoError(f"--out-params: no folder {Path(args.out_params).parent}")
-    result = match(args.model, args.image, args.source, args.refine, args.res, args.samples)
+    out = Path(args.out_params)
+    if not out.resolve().parent.is_dir():
+        raise VtoError(f"--out-params: no folder {out.parent}")
+    if args.res is not None and not 8 <= args.res <= 4096 or not 1 <= args.samples <= 65536:
+        raise VtoError(f"--res must be in [8, 4096] and --samples in [1, 65536], got {args.res} and {args.samples}")
+    result = match(args.model, args.image, args.source, args.refine, args.imitator, args.res, args.samples, args.seed,
+                   args.objective, args.start)
     if result["note"]:
         print(f"vto match: {result['note']}", file=sys.stderr)
-    out = Path(args.out_params)
     temporary = out.with_name(out.name + ".tmp")
-    temporary.write_text(json.dumps({"params": result["params"]}, indent=1))
+    temporary.write_text(json.dumps({"renderer": result["renderer"], "params": result["params"]}, indent=1) + "\n")
     temporary.replace(out)
     print(json.dumps({"out": str(out), **result}))
     return 0

@@ -1,4 +1,9 @@
-"""Derivative-free refinement through the real renderer: CMA-ES on the unit parameters, a fixed render budget."""
+"""Derivative-free refinement through the real renderer: CMA-ES on the unit parameters, an exact render budget.
+
+Needs only numpy and `cma` (no torch): it runs inside Blender. The renderer comes in as a function of the unit
+vector, so the caller fixes the source, the size and the Cycles seed (one seed for every render: the search then
+compares looks, not noise).
+"""
 
 from __future__ import annotations
 
@@ -8,44 +13,66 @@ from dataclasses import dataclass
 import numpy as np
 
 from vto_core.errors import VtoError
-from vto_core.metrics import mse
+from vto_core.metrics import mse, ssim
 
-SIGMA = 0.15  # initial CMA-ES step in unit space: about the encoder's typical error
+SIGMA = 0.15  # initial step in unit space from the encoder's estimate: about its typical error
+SIGMA_FROM_MEAN = 0.3  # from the mean preset: a look anywhere in the ranges must be reachable
+OBJECTIVES = {"mse": mse, "ssim": lambda a, b: 1.0 - ssim(a, b)}
 
 
 @dataclass
 class Refined:
-    """Best unit vector (m,), its objective (MSE to the reference), renders spent, objective at the start."""
+    """Best unit vector (m,), its objective, the objective at the start, and the renders spent."""
 
     unit: np.ndarray
     loss: float
-    renders: int
     start_loss: float
+    renders: int
+
+
+def into_box(unit: np.ndarray, wraps: np.ndarray) -> np.ndarray:
+    """(m,) -> (m,) inside [0, 1]: wrapping dimensions (hue) taken mod 1, the others clipped."""
+    unit = np.asarray(unit, np.float64)
+    return np.where(wraps, np.mod(unit, 1.0), np.clip(unit, 0.0, 1.0))
 
 
 def refine_by_render(render_unit: Callable[[np.ndarray], np.ndarray], reference: np.ndarray, start: np.ndarray,
-                     budget: int, seed: int = 0) -> Refined:
-    """Minimise MSE(render_unit(u), reference) over u in [0, 1]^m from `start` with at most `budget` renders.
+                     budget: int, seed: int = 0, wraps=None, objective: str = "mse", sigma: float = SIGMA) -> Refined:
+    """Minimise objective(render_unit(u), reference) over u in [0, 1]^m from `start`, with at most `budget` renders.
 
+    render_unit: (m,) unit vector -> (H, W, 3) image like `reference`; wraps: (m,) bool, dimensions that wrap (hue).
     The start is rendered first and kept unless something renders closer, so the result is never worse than the
-    start on this objective; every candidate stays inside the unit box (CMA-ES bounds, then a clip).
+    start on this objective. Whole CMA-ES generations are told back; what is left of the budget at the end is spent
+    on part of one more generation (evaluated, kept if better, not told), so exactly `budget` renders are made
+    unless the search converges first.
     """
     import cma
 
     if budget < 1:
         raise VtoError(f"a render budget needs at least 1 render, got {budget}")
-    start = np.clip(np.asarray(start, np.float64), 0.0, 1.0)
-    best_unit, best_loss = start, mse(render_unit(start), reference)
+    if objective not in OBJECTIVES:
+        raise VtoError(f"unknown objective '{objective}'; choose from {', '.join(OBJECTIVES)}")
+    distance = OBJECTIVES[objective]
+    start = np.asarray(start, np.float64)
+    wraps = np.zeros(start.shape, bool) if wraps is None else np.asarray(wraps, bool)
+    start = into_box(start, wraps)
+    best_unit, best_loss = start, distance(render_unit(start), reference)
     start_loss, renders = best_loss, 1
-    strategy = cma.CMAEvolutionStrategy(start.tolist(), SIGMA, {
-        "bounds": [0.0, 1.0], "seed": seed + 1, "verbose": -9, "verb_log": 0, "verb_disp": 0,
-        "popsize": max(4, min(8, budget // 4))})
-    while renders + strategy.popsize <= budget and not strategy.stop():
-        candidates = [np.clip(np.asarray(x), 0.0, 1.0) for x in strategy.ask()]
-        losses = [mse(render_unit(x), reference) for x in candidates]
+    if budget == 1:
+        return Refined(best_unit, float(best_loss), float(start_loss), renders)
+    strategy = cma.CMAEvolutionStrategy(start.tolist(), sigma, {
+        "bounds": [[None if w else 0.0 for w in wraps], [None if w else 1.0 for w in wraps]],
+        "seed": seed + 1, "verbose": -9, "verb_log": 0, "verb_disp": 0,
+        "popsize": max(4, min(4 + int(3 * np.log(start.size)), (budget - 1) // 3))})
+    while renders < budget and not strategy.stop():
+        asked = strategy.ask()
+        left = budget - renders
+        candidates = [into_box(x, wraps) for x in asked[:left]]
+        losses = [distance(render_unit(x), reference) for x in candidates]
         renders += len(candidates)
-        strategy.tell(candidates, losses)
+        if len(candidates) == len(asked):
+            strategy.tell(asked, losses)
         k = int(np.argmin(losses))
         if losses[k] < best_loss:
             best_unit, best_loss = candidates[k], losses[k]
-    return Refined(best_unit, float(best_loss), renders, float(start_loss))
+    return Refined(best_unit, float(best_loss), float(start_loss), renders)

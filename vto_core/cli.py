@@ -23,7 +23,7 @@ COMMANDS = {
     "scene-params": ("blender_addon.scene_params", "cmd_scene_params",
                      "list which lipstick group inputs visibly change a user's scene (needs bpy)"),
     "match": ("blender_addon.match", "cmd_match", "estimate a renderer's parameters from a reference image"),
-    "eval": ("blender_addon.evaluate", "cmd_eval", "the paper's transfer experiment on an exported encoder (needs bpy)"),
+    "eval": ("training.cli", "cmd_eval", "the paper's transfer experiment on an exported encoder (needs bpy)"),
     "demo": ("blender_addon.commands", "cmd_demo", "render expert presets on the embedded default scenes"),
 }
 

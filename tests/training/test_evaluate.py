@@ -1,5 +1,7 @@
-"""`vto eval` end to end on a tiny encoder: finite figures, baselines, tables, plots and the contact sheet."""
+"""`vto eval` end to end on a tiny encoder and imitator: every method, finite figures, tables, plots, contact sheet."""
 
+import contextlib
+import io
 import json
 
 import numpy as np
@@ -9,114 +11,133 @@ pytestmark = [pytest.mark.blender, pytest.mark.torch, pytest.mark.slow]
 pytest.importorskip("bpy")
 pytest.importorskip("torch")
 
-from blender_addon.evaluate import buckets, parameter_errors  # noqa: E402
-from training.config import EncoderConfig, resolve_config  # noqa: E402
+from training.cli import cmd_eval  # noqa: E402
+from training.config import EncoderConfig, ImitatorConfig, resolve_config  # noqa: E402
+from training.evaluate import buckets, is_dark, parameter_errors, raw_errors  # noqa: E402
 from training.export import export_encoder  # noqa: E402
 from training.train_encoder import train_encoder  # noqa: E402
-from vto_core import cli  # noqa: E402
+from training.train_imitator import train_imitator  # noqa: E402
+from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import read_image  # noqa: E402
+from vto_core.metrics import psnr  # noqa: E402
+from vto_core.presets import load_presets  # noqa: E402
 from vto_core.specs import get_spec  # noqa: E402
 
-TINY = ["width=8", "n_layers=2", "batch_size=16", "perceptual=ssim_l1", "log_every=50", "lr=0.003", "loss=graphics",
-        "pool_size=1"]
+RES, SAMPLES, N = 16, 2, 2
+METHODS = {"mean preset", "nearest preset", "encoder", "encoder + imitator 3", "encoder + render search 5",
+           "render search 5 from the mean preset"}
+SPEC = get_spec("lipstick", "opacity,red,green,blue")
 
 
 @pytest.fixture(scope="module")
-def tiny_encoder(colour_dataset, tmp_path_factory):
-    folder = tmp_path_factory.mktemp("eval-model")
-    config = resolve_config(EncoderConfig, None, TINY + ["steps=600"])
-    run = train_encoder(str(colour_dataset), None, str(folder / "encoder"), config)
+def models(lipstick_dataset, tmp_path_factory):
+    """A tiny encoder (.onnx) and imitator run on the 24-sample dataset: (encoder, imitator)."""
+    folder = tmp_path_factory.mktemp("eval-models")
+    common = ["perceptual=ssim_l1", "batch_size=8", "lr=0.003", "log_every=20"]
+    run = train_encoder(str(lipstick_dataset), None, str(folder / "encoder"), resolve_config(
+        EncoderConfig, None, common + ["width=8", "n_layers=2", "pool_size=1", "loss=graphics", "steps=40"]))
     export_encoder(str(run.path), str(folder / "encoder.onnx"))
-    return folder / "encoder.onnx"
+    train_imitator(str(lipstick_dataset), str(folder / "imitator"), resolve_config(
+        ImitatorConfig, None, common + ["width=8", "n_down=1", "n_res=1", "critic_width=8", "critic_layers=2",
+                                        "use_gan=false", "steps=20"]))
+    return str(folder / "encoder.onnx"), str(folder / "imitator")
 
 
-def test_eval_writes_every_output_with_finite_figures(tiny_encoder, tmp_path, capsys):
-    out = tmp_path / "eval"
-    assert cli.run(["eval", "--model", str(tiny_encoder), "--n", "3", "--res", "16", "--samples", "2",
-                    "--refine", "render:5", "--out", str(out)]) == 0
-    printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+@pytest.fixture(scope="module")
+def evaluated(models, tmp_path_factory):
+    """One `vto eval` run with every kind of method: (out folder, the printed JSON line)."""
+    out = tmp_path_factory.mktemp("eval") / "results"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert cmd_eval(["--model", models[0], "--imitator", models[1], "--n", str(N), "--res", str(RES), "--samples",
+                         str(SAMPLES), "--refine", "imitator:3,render:5", "--search-from-mean", "5", "--quiet",
+                         "--out", str(out)]) == 0
+    return out, json.loads(printed.getvalue().strip().splitlines()[-1])
+
+
+def test_every_method_has_finite_figures_and_the_baselines_are_there(evaluated):
+    out, printed = evaluated
     results = json.loads((out / "results.json").read_text())
     summary = results["summary"]
-    assert set(summary) == {"encoder", "mean preset", "nearest preset", "encoder + render search 5"}
-    assert set(summary) == set(printed) - {"out"}
-    for method in summary.values():
-        assert np.isfinite([method["psnr_mean"], method["ssim_mean"]]).all()
-        assert set(method["param_error"]) == {"red", "green", "blue"}
+    assert set(summary) == METHODS and set(printed) - {"out"} == METHODS
+    for name, method in summary.items():
+        assert np.isfinite([*method["psnr"], *method["ssim"], method["ms_per_reference"]]).all(), name
+        assert method["perceptual"] is None or np.isfinite(method["perceptual"]).all()
+        assert set(method["param_error"]) == set(SPEC.modelled)
         assert all(0 <= e <= 1 for e in method["param_error"].values())
-    assert len(results["looks"]) == 3
-    assert "| encoder |" in (out / "results.md").read_text()
+        rows = [look["methods"][name] for look in results["looks"]]
+        assert method["psnr"][0] == pytest.approx(np.mean([r["psnr"] for r in rows]))
+        assert all(SPEC.by_name[k].low <= v <= SPEC.by_name[k].high for r in rows for k, v in r["estimate"].items())
+    assert summary["mean preset"]["gain_over_mean_preset_db"] == 0 and summary["mean preset"]["ms_per_reference"] == 0
+    assert all(summary[m]["ms_per_reference"] > 0 for m in METHODS - {"mean preset"})
+    # the nearest preset renders 36 presets on A: it costs more than 5 renders of a search from the mean preset
+    assert summary["nearest preset"]["ms_per_reference"] > summary["render search 5 from the mean preset"][
+        "ms_per_reference"]
+    presets = load_presets("lipstick")
+    for look in results["looks"]:
+        assert look["nearest_preset"] in presets and look["source_a"] != look["source_b"]
+        nearest = SPEC.full_values(presets[look["nearest_preset"]])
+        assert look["methods"]["nearest preset"]["estimate"] == pytest.approx({k: nearest[k] for k in SPEC.modelled})
+        assert look["buckets"]
+    assert len({look["source_a"] for look in results["looks"]} | {look["source_b"] for look in results["looks"]}) == 2 * N
+
+
+def test_the_comparison_renders_on_source_b_with_the_truths_cycles_seed(evaluated):
+    """Re-rendering one look's truth and mean-preset estimate on B reproduces the recorded PSNR."""
+    from blender_addon.commands import render
+
+    out, _ = evaluated
+    look = json.loads((out / "results.json").read_text())["looks"][1]
+    mean = {k: v for k, v in look["methods"]["mean preset"]["estimate"].items()}
+    truth = render("lipstick", look["truth"], look["source_b"], RES, SAMPLES, look["cycles_seed"])
+    on_b = render("lipstick", mean, look["source_b"], RES, SAMPLES, look["cycles_seed"])
+    assert psnr(on_b, truth) == pytest.approx(look["methods"]["mean preset"]["psnr"], abs=0.05)
+
+
+def test_tables_plots_and_contact_sheet_are_written(evaluated):
+    out, _ = evaluated
+    text = (out / "results.md").read_text()
+    for method in METHODS:
+        assert f"| {method} |" in text
+    assert "PSNR by bucket" in text and "| opacity |" in text and "Median absolute parameter error" in text
     sheet, _ = read_image(out / "sheet.png")
-    assert sheet.shape == (3 * 16, 4 * 16, 3)  # reference | truth | encoder | nearest preset, a row per look
+    assert sheet.shape == (N * RES, (2 + len(METHODS)) * RES, 3)  # reference A | truth B | each method on B
+    assert np.isfinite(sheet).all() and sheet.std() > 0.01
     for plot in ("psnr.png", "errors.png"):
-        assert (out / plot).stat().st_size > 1000
+        image, _ = read_image(out / plot)
+        assert image.shape[0] > 200 and image.shape[1] > 300 and image.std() > 0.01
 
 
-def test_eval_refuses_a_missing_or_foreign_model(tmp_path, capsys):
-    assert cli.run(["eval", "--model", str(tmp_path / "none.onnx"), "--out", str(tmp_path / "e")]) == 2
+@pytest.mark.parametrize("argv, message", [
+    (["--model", "{tmp}/none.onnx"], "no encoder model"),
+    (["--model", "{tmp}/junk.onnx"], "cannot load"),
+    (["--refine", "render:x"], "--refine takes none, imitator:K"),
+    (["--refine", "imitator:3"], "needs --imitator RUN"),
+    (["--refine", "imitator:3", "--imitator", "{tmp}/no-run"], "no imitator run folder"),
+    (["--n", "0"], "--n must be at least 1"),
+    (["--search-from-mean", "many"], "--search-from-mean takes render budgets"),
+])
+def test_bad_input_is_one_line_and_writes_nothing(argv, message, models, tmp_path):
     (tmp_path / "junk.onnx").write_bytes(b"not a model")
-    assert cli.run(["eval", "--model", str(tmp_path / "junk.onnx"), "--out", str(tmp_path / "e")]) == 2
-    assert not (tmp_path / "e").exists()
-    assert "no encoder model" in capsys.readouterr().err
+    args = {"--model": models[0], "--out": str(tmp_path / "out"), "--n": "1", "--res": str(RES), "--samples": "1"}
+    args.update(zip(argv[::2], (a.replace("{tmp}", str(tmp_path)) for a in argv[1::2])))
+    with pytest.raises(VtoError, match=message) as caught:
+        cmd_eval([x for pair in args.items() for x in pair])
+    assert "\n" not in str(caught.value)
+    assert not (tmp_path / "out").exists() and not (tmp_path / "no-run").exists()
 
 
 def test_hue_errors_wrap_and_buckets_name_dark_glossy_and_extreme_looks():
     hair = get_spec("hair", "hue,blend")
     assert parameter_errors(hair, np.array([0.98, 0.5]), np.array([0.02, 0.6])) == pytest.approx([0.04, 0.1])
+    assert raw_errors(hair, {"hue": 0.95, "blend": 0.0}, {"hue": 0.05, "blend": -0.5}) == pytest.approx([0.1, 0.5])
     lipstick = get_spec("lipstick")
-    values = lipstick.full_values({"red": 30, "green": 10, "blue": 10, "gloss": 5.0})
-    assert buckets(lipstick, values, lipstick.normalise(lipstick.vector(values))) == ["dark", "high gloss",
-                                                                                       "range extreme"]
-    plain = lipstick.full_values({})
-    assert buckets(lipstick, plain, np.full(lipstick.size, 0.5)) == ["other"]
-
-
-@pytest.fixture(scope="module")
-def reference(tmp_path_factory):
-    from blender_addon.commands import render
-    from vto_core.imageio import write_image
-
-    path = tmp_path_factory.mktemp("match") / "reference.png"
-    write_image(path, render("lipstick", {"red": 200.0, "green": 30.0, "blue": 60.0}, 3, 16, 2), bits=16)
-    return path
-
-
-def test_match_without_refinement_is_the_encoders_estimate(tiny_encoder, reference, tmp_path, capsys):
-    from vto_core.inference import EncoderSession
-
-    out = tmp_path / "params.json"
-    assert cli.run(["match", "--model", str(tiny_encoder), "--image", str(reference), "--out-params", str(out)]) == 0
-    written = json.loads(out.read_text())["params"]
-    expected = EncoderSession(tiny_encoder).predict(read_image(reference)[0])[0]
-    assert written == pytest.approx(expected)
-    assert cli.run(["match", "--model", str(tiny_encoder), "--image", str(reference), "--refine", "render:4",
-                    "--out-params", str(tmp_path / "p2.json")]) == 0
-    assert "no source for the reference" in capsys.readouterr().err  # refinement needs the source: it says so
-    assert json.loads((tmp_path / "p2.json").read_text())["params"] == pytest.approx(expected)
-
-
-def test_render_refinement_keeps_its_budget_range_and_never_worsens(tiny_encoder, reference):
-    from blender_addon.match import match
-
-    result = match(str(tiny_encoder), str(reference), source="3", refine="render:9", res=16, samples=2)
-    assert result["refined"] and result["renders"] <= 9
-    assert result["loss"] <= result["loss_start"]
-    spec = get_spec("lipstick", "red,green,blue")
-    for name in spec.modelled:
-        assert spec.by_name[name].low <= result["params"][name] <= spec.by_name[name].high
-
-
-@pytest.mark.parametrize("argv, message", [
-    (["--image", "{missing}"], "no image at"),
-    (["--image", "{text}"], "cannot read image"),
-    (["--image", "{ref}", "--refine", "render:0"], "--refine takes none or render:B"),
-    (["--image", "{ref}", "--model", "{text}"], "cannot load|not a VTO encoder"),
-])
-def test_match_bad_input_is_one_line_and_writes_nothing(argv, message, tiny_encoder, reference, tmp_path, capsys):
-    (tmp_path / "notes.txt").write_text("not an image")
-    subs = {"{missing}": str(tmp_path / "none.png"), "{text}": str(tmp_path / "notes.txt"), "{ref}": str(reference)}
-    args = ["match", "--model", str(tiny_encoder), "--out-params", str(tmp_path / "out.json")]
-    args += [subs.get(a, a) for a in argv]
-    assert cli.run(args) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and __import__("re").search(message, err), err
-    assert not (tmp_path / "out.json").exists()
+    values = lipstick.full_values({"red": 20, "green": 10, "blue": 10, "gloss": 5.0, "opacity": 0.5})
+    found = buckets(lipstick, values, lipstick.normalise(lipstick.vector(values)))
+    assert found[:2] == ["dark", "high gloss"] and {"red low", "green low", "blue low"} <= set(found)
+    assert "opacity low" not in found and "opacity high" not in found
+    assert buckets(lipstick, lipstick.full_values({}), np.full(lipstick.size, 0.5)) == ["other"]
+    hue_only = get_spec("hair", "hue")
+    assert buckets(hue_only, hue_only.full_values({"hue": 0.99}), np.array([0.99])) == ["other"]  # no ends on a circle
+    assert is_dark("hair", get_spec("hair").full_values({"exposure": 0.5, "brightness": -0.3}))
+    assert not is_dark("hair", get_spec("hair").full_values({}))

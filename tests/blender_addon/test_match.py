@@ -1,0 +1,204 @@
+"""`vto match` on a tiny encoder and imitator: the estimate, refinement by render search and imitator, bad inputs."""
+
+import json
+import re
+import sys
+
+import numpy as np
+import pytest
+
+pytestmark = [pytest.mark.blender, pytest.mark.torch, pytest.mark.slow]
+pytest.importorskip("bpy")
+pytest.importorskip("torch")
+
+from blender_addon.match import NO_SOURCE, SourceRenderer, match, photo_source  # noqa: E402
+from blender_addon.refine import into_box, refine_by_render  # noqa: E402
+from vto_core import cli  # noqa: E402
+from vto_core.imageio import read_image, write_image  # noqa: E402
+from vto_core.inference import EncoderSession  # noqa: E402
+from vto_core.metrics import mse  # noqa: E402
+from vto_core.params_io import parse_params  # noqa: E402
+from vto_core.specs import get_spec  # noqa: E402
+
+PARAMS = "opacity,red,green,blue"
+SPEC = get_spec("lipstick", PARAMS)
+RES, SAMPLES, SOURCE = 16, 2, 3
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    """A tiny encoder (.onnx) and imitator run, trained for a few steps on 6 real renders: (encoder, imitator)."""
+    from blender_addon.commands import cmd_dataset
+    from training.config import EncoderConfig, ImitatorConfig, resolve_config
+    from training.export import export_encoder
+    from training.train_encoder import train_encoder
+    from training.train_imitator import train_imitator
+
+    folder = tmp_path_factory.mktemp("match-models")
+    assert cmd_dataset(["lipstick", "--out", str(folder / "data"), "--n", "6", "--seed", "5", "--res", str(RES),
+                        "--samples", str(SAMPLES), "--params", PARAMS, "--quiet"]) == 0
+    common = ["perceptual=ssim_l1", "batch_size=6", "val_fraction=0", "lr=0.003"]
+    run = train_encoder(str(folder / "data"), None, str(folder / "encoder"), resolve_config(
+        EncoderConfig, None, common + ["width=8", "n_layers=2", "pool_size=1", "loss=graphics", "steps=10"]))
+    export_encoder(str(run.path), str(folder / "encoder.onnx"))
+    train_imitator(str(folder / "data"), str(folder / "imitator"), resolve_config(
+        ImitatorConfig, None, common + ["width=8", "n_down=1", "n_res=1", "critic_width=8", "critic_layers=2",
+                                        "use_gan=false", "use_sensitivity=false", "steps=10"]))
+    return str(folder / "encoder.onnx"), str(folder / "imitator")
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """A red lipstick rendered on default-scene source 3 (Cycles seed 0), saved as a 16-bit PNG."""
+    from blender_addon.commands import render
+
+    path = tmp_path_factory.mktemp("match-reference") / "reference.png"
+    write_image(path, render("lipstick", {"opacity": 0.9, "red": 200.0, "green": 30.0, "blue": 60.0}, SOURCE, RES,
+                             SAMPLES, 0), bits=16)
+    return str(path)
+
+
+def unit_renderer(on_source):
+    return lambda unit: on_source(SPEC.values(SPEC.denormalise(unit)))
+
+
+def in_range(values: dict) -> bool:
+    return all(SPEC.by_name[k].low <= values[k] <= SPEC.by_name[k].high for k in SPEC.modelled)
+
+
+def test_match_writes_the_encoders_estimate_in_the_presets_format(models, reference, tmp_path, capsys):
+    encoder, _ = models
+    out = tmp_path / "params.json"
+    assert cli.run(["match", "--model", encoder, "--image", reference, "--out-params", str(out)]) == 0
+    printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    expected = EncoderSession(encoder).predict(read_image(reference)[0])[0]
+    written = parse_params(str(out), "lipstick")  # what `vto render --params FILE` reads
+    assert written == pytest.approx(expected) and printed["params"] == pytest.approx(expected)
+    assert set(written) == set(get_spec("lipstick").by_name) and printed["refined"] is False
+    assert get_spec("lipstick").check_values(written) == pytest.approx(written)  # every value inside its range
+
+
+@pytest.mark.parametrize("refine", ["render:4", "imitator:2"])
+def test_refinement_without_a_source_says_so_and_keeps_the_estimate(refine, models, reference, tmp_path, capsys):
+    encoder, imitator = models
+    out = tmp_path / "params.json"
+    assert cli.run(["match", "--model", encoder, "--image", reference, "--refine", refine, "--imitator", imitator,
+                    "--out-params", str(out)]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"vto match: {NO_SOURCE}"]
+    expected = EncoderSession(encoder).predict(read_image(reference)[0])[0]
+    assert parse_params(str(out), "lipstick") == pytest.approx(expected)
+
+
+def test_into_box_wraps_hue_and_clips_the_rest():
+    unit = into_box(np.array([1.25, -0.25, 1.5, -0.5]), np.array([True, True, False, False]))
+    assert unit == pytest.approx([0.25, 0.75, 1.0, 0.0])
+
+
+@pytest.mark.parametrize("budget", [1, 7])
+def test_render_search_spends_its_budget_exactly_stays_in_range_and_never_worsens(budget, reference):
+    """Counted renders equal the budget; the result re-renders to its reported objective, no worse than the start."""
+    target = read_image(reference)[0]
+    on_source = SourceRenderer("lipstick", SOURCE, RES, SAMPLES, 0)
+    render_unit = unit_renderer(on_source)
+    start = np.ones(SPEC.size)  # white, fully opaque: far from the red reference
+    refined = refine_by_render(render_unit, target, start, budget, seed=0)
+    assert on_source.renders == refined.renders == budget
+    assert ((0 <= refined.unit) & (refined.unit <= 1)).all()
+    assert refined.start_loss == pytest.approx(mse(render_unit(start), target))
+    assert refined.loss == pytest.approx(mse(render_unit(refined.unit), target))  # one Cycles seed: deterministic
+    if budget == 1:
+        assert refined.loss == refined.start_loss and refined.unit == pytest.approx(start)
+    else:
+        assert refined.loss < refined.start_loss  # 6 renders around a white start find something redder
+
+
+def test_match_refines_through_the_renderer_and_the_imitator(models, reference, tmp_path, capsys):
+    encoder, imitator = models
+    by_render = match(encoder, reference, source=str(SOURCE), refine="render:5", samples=SAMPLES)
+    assert by_render["refined"] and by_render["renders"] == 5 and in_range(by_render["params"])
+    assert by_render["loss"] <= by_render["loss_start"]
+    from_mean = match(encoder, reference, source=str(SOURCE), refine="render:3", samples=SAMPLES, start_at="mean")
+    assert from_mean["renders"] == 3 and from_mean["loss"] <= from_mean["loss_start"] != by_render["loss_start"]
+    out = tmp_path / "params.json"
+    assert cli.run(["match", "--model", encoder, "--image", reference, "--source", str(SOURCE), "--refine",
+                    "imitator:4", "--imitator", imitator, "--samples", str(SAMPLES), "--out-params", str(out)]) == 0
+    printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert printed["refined"] and printed["steps"] == 4 and printed["loss"] <= printed["loss_start"]
+    assert parse_params(str(out), "lipstick") == pytest.approx(printed["params"]) and in_range(printed["params"])
+
+
+def test_imitator_refinement_without_torch_is_one_clear_line(models, reference, tmp_path, capsys, monkeypatch):
+    """Inside Blender torch is missing: imitator:K says so, render:B is the way there."""
+    encoder, imitator = models
+    monkeypatch.setitem(sys.modules, "torch", None)  # `import torch` now raises ImportError, as in Blender
+    monkeypatch.delitem(sys.modules, "training.refine", raising=False)
+    out = tmp_path / "params.json"
+    assert cli.run(["match", "--model", encoder, "--image", reference, "--source", str(SOURCE), "--refine",
+                    "imitator:2", "--imitator", imitator, "--out-params", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "needs torch" in err[0] and "render:B" in err[0]
+    assert not out.exists()
+
+
+def test_a_hair_photo_with_its_mask_is_its_own_source(tmp_path):
+    rows = np.linspace(0.1, 0.8, RES, dtype=np.float32)
+    photo = np.stack([np.outer(rows, np.ones(RES)), np.full((RES, RES), 0.3), np.outer(np.ones(RES), rows)], -1)
+    write_image(tmp_path / "portrait.png", photo, bits=16)
+    assert photo_source(tmp_path / "portrait.png") is None  # no mask yet
+    mask = np.zeros((RES, RES), np.float32)
+    mask[: RES // 2] = 1.0
+    write_image(tmp_path / "portrait_mask.png", mask)
+    assert photo_source(tmp_path / "portrait.png") == str(tmp_path / "portrait.png")
+    on_photo = SourceRenderer("hair", str(tmp_path / "portrait.png"), RES)
+    stored = read_image(tmp_path / "portrait.png")[0]
+    assert np.abs(on_photo.source_image() - stored).max() < 1e-6
+    assert np.abs(on_photo({"intensity": 0.0}) - stored).max() < 2e-3  # no colour change: the photo itself
+
+
+@pytest.fixture
+def bad_files(tmp_path):
+    import onnx
+    from onnx import TensorProto, helper
+
+    (tmp_path / "notes.txt").write_text("not an image")
+    (tmp_path / "junk.onnx").write_bytes(b"not a model")
+    value = helper.make_tensor_value_info("x", TensorProto.FLOAT, [1])
+    graph = helper.make_graph([helper.make_node("Identity", ["x"], ["y"])], "foreign", [value],
+                              [helper.make_tensor_value_info("y", TensorProto.FLOAT, [1])])
+    model = helper.make_model(graph, ir_version=10, opset_imports=[helper.make_opsetid("", 18)])
+    onnx.save(model, str(tmp_path / "foreign.onnx"))  # a valid model onnxruntime loads, without VTO metadata
+    return tmp_path
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--image", "{tmp}/none.png"], "no image at"),
+    (["--image", "{tmp}/notes.txt"], "cannot read image"),
+    (["--model", "{tmp}/foreign.onnx"], "not a VTO encoder"),
+    (["--model", "{tmp}/junk.onnx"], "cannot load"),
+    (["--model", "{tmp}/none.onnx"], "no encoder model"),
+    (["--refine", "render:0"], "--refine takes none, imitator:K"),
+    (["--refine", "imitator"], "--refine takes none, imitator:K"),
+    (["--refine", "imitator:3"], "needs --imitator RUN"),
+    (["--refine", "imitator:3", "--source", "3", "--imitator", "{tmp}/no-run"], "no imitator run folder"),
+    (["--refine", "render:3", "--source", "lips"], "lipstick sources are seeds"),
+    (["--out-params", "{tmp}/missing/out.json"], "no folder"),
+])
+def test_bad_input_is_one_line_and_writes_nothing(argv, message, models, reference, bad_files, capsys):
+    args = {"--model": models[0], "--image": reference, "--out-params": str(bad_files / "out.json")}
+    args.update(zip(argv[::2], (a.replace("{tmp}", str(bad_files)) for a in argv[1::2])))
+    assert cli.run(["match", *[x for pair in args.items() for x in pair]]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and re.search(re.escape(message), err), err
+    assert not (bad_files / "out.json").exists() and not (bad_files / "no-run").exists()
+
+
+def test_match_and_render_search_load_without_torch_or_training():
+    """The extension ships without torch: importing these modules must not pull it (or `training`) in."""
+    import subprocess
+
+    code = ("import sys, blender_addon.match, blender_addon.refine\n"
+            "bad = [m for m in ('torch', 'training') if m in sys.modules]\n"
+            "print(','.join(bad)); sys.exit(1 if bad else 0)\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, f"imported {done.stdout.strip()} {done.stderr[-500:]}"
