@@ -1,9 +1,19 @@
-"""Training configs as dataclasses: defaults from the paper, overridable by a JSON file and --set key=value."""
+"""Training configs as dataclasses: defaults from the paper, overridable by a preset or JSON file and --set key=value.
+
+The paper's full setting (section 6.2) is the default optimiser: Adam, lr 5e-5 constant, batch 16; its length is
+`--config paper` (300 epochs). `--config cpu` is the faster setting measured on a small CPU run
+(benchmarks/results/training.md): a higher lr with cosine decay reaches a lower validation error in the same time.
+
+Why hand-written and not tyro/jsonargparse: the settings are flat dataclasses of bool/int/float/str, and the ~60 lines
+below already give typed parsing, one-line errors (VtoError, exit 2) and JSON files; a library would add a dependency
+(and its own error format) to the Blender-side install for no behaviour the project needs.
+"""
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -14,9 +24,12 @@ from vto_core.errors import VtoError
 class CommonConfig:
     """Options shared by both training runs."""
 
-    steps: int = 20000  # optimiser steps (the paper trains 300 epochs of 15,000 samples)
-    batch_size: int = 16
+    steps: int = 20000  # optimiser steps; ignored when epochs > 0
+    epochs: int = 0  # > 0: passes over the training split instead (the paper: 300 epochs of 15,000 samples)
+    batch_size: int = 16  # global batch: split evenly over the processes of a torchrun job
     lr: float = 5e-5
+    schedule: str = "constant"  # constant (the paper) | cosine (decays to 0 at the last step)
+    warmup_steps: int = 0  # linear warm-up from 0 to lr over the first steps
     beta1: float = 0.5
     beta2: float = 0.999
     perceptual: str = "auto"  # auto | vgg | ssim_l1
@@ -38,8 +51,8 @@ class ImitatorConfig(CommonConfig):
     n_res: int = 6
     critic_width: int = 64
     critic_layers: int = 4
-    lambda_imitation: float = 100.0
-    lambda_sens: float = 1000.0
+    lambda_imitation: float = 100.0  # the paper's lambda_1
+    lambda_sens: float = 1000.0  # the paper's lambda_2 (see training.losses.sensitivity_loss for the scale)
     lambda_gp: float = 10.0
     use_sensitivity: bool = True  # ablation: imitation | imitation+sensitivity
     use_gan: bool = True
@@ -57,6 +70,17 @@ class EncoderConfig(CommonConfig):
     loss: str = "both"  # ablation: graphics | rendering | both
 
 
+# Named settings for --config NAME (a JSON file path works too). The paper's schedule is the defaults' optimiser
+# run for 300 epochs; "cpu" is measured in benchmarks/results/training.md (bench_training --schedules).
+PRESETS = {
+    "paper": {"lr": 5e-5, "batch_size": 16, "schedule": "constant", "warmup_steps": 0, "epochs": 300},
+    "cpu": {"lr": 2e-3, "batch_size": 16, "schedule": "cosine", "warmup_steps": 50},
+}
+PRESET_CLASSES = {"cpu": ("EncoderConfig",)}  # presets measured for some networks only
+_CHOICES = {"perceptual": ("auto", "vgg", "ssim_l1"), "schedule": ("constant", "cosine"),
+            "loss": ("graphics", "rendering", "both")}
+
+
 def _convert(kind, text: str):
     if kind in (bool, "bool"):
         if text.lower() in ("1", "true", "yes", "on"):
@@ -68,15 +92,22 @@ def _convert(kind, text: str):
 
 
 def resolve_config(cls, config_file: str | None = None, overrides: list[str] | None = None):
-    """Defaults <- JSON file <- 'key=value' overrides; unknown keys and bad values are VtoErrors."""
+    """Defaults <- a preset (PRESETS) or JSON file <- 'key=value' overrides; unknown keys, bad values: VtoError."""
     values = {}
-    if config_file:
+    if config_file in PRESETS:
+        if cls.__name__ not in PRESET_CLASSES.get(config_file, (cls.__name__,)):
+            raise VtoError(f"preset '{config_file}' is measured for {', '.join(PRESET_CLASSES[config_file])} only")
+        values.update(PRESETS[config_file])
+    elif config_file:
         try:
-            values.update(json.loads(Path(config_file).read_text()))
+            loaded = json.loads(Path(config_file).read_text())
         except FileNotFoundError:
-            raise VtoError(f"no config file at {config_file}") from None
+            raise VtoError(f"no config file at {config_file} (presets: {', '.join(PRESETS)})") from None
         except json.JSONDecodeError as exc:
             raise VtoError(f"config file {config_file} is not JSON: {exc}") from None
+        if not isinstance(loaded, dict):
+            raise VtoError(f"config file {config_file} must hold one JSON object of settings")
+        values.update(loaded)
     types = {f.name: f.type for f in fields(cls)}
     for item in overrides or []:
         key, sep, text = item.partition("=")
@@ -108,22 +139,39 @@ def _check_type(key: str, kind, value) -> None:
     else:
         fits = isinstance(value, kind)
     if not fits:
-        raise VtoError(f"setting '{key}' must be a {kind.__name__}, got {value!r}")
+        article = "an" if kind is int else "a"
+        raise VtoError(f"setting '{key}' must be {article} {kind.__name__}, got {value!r}")
 
 
 def validate(config) -> None:
-    """Ranges that would otherwise fail deep inside a run."""
-    for name in ("steps", "batch_size", "log_every", "checkpoint_every"):
-        if getattr(config, name) < 1:
-            raise VtoError(f"{name} must be at least 1, got {getattr(config, name)}")
-    if config.lr <= 0:
-        raise VtoError(f"lr must be positive, got {config.lr}")
+    """Ranges that would otherwise fail deep inside a run (or silently do nothing)."""
+    minimums = {"steps": 1, "batch_size": 1, "log_every": 1, "checkpoint_every": 1, "epochs": 0, "warmup_steps": 0,
+                "num_workers": 0, "critic_steps": 1, "width": 1, "critic_width": 1, "critic_layers": 1,
+                "n_layers": 1, "pool_size": 1, "n_down": 0, "n_res": 0}
+    for name, minimum in minimums.items():
+        if hasattr(config, name) and getattr(config, name) < minimum:
+            raise VtoError(f"{name} must be at least {minimum}, got {getattr(config, name)}")
+    if not 0 < config.lr < math.inf:
+        raise VtoError(f"lr must be positive and finite, got {config.lr}")
+    for name in ("beta1", "beta2"):
+        if not 0.0 <= getattr(config, name) < 1.0:
+            raise VtoError(f"{name} must be in [0, 1), got {getattr(config, name)}")
+    for name in ("lambda_imitation", "lambda_sens", "lambda_gp", "lambda_rendering"):
+        if hasattr(config, name) and not getattr(config, name) >= 0:
+            raise VtoError(f"{name} must be at least 0, got {getattr(config, name)}")
     if not 0.0 <= config.val_fraction < 1.0:
         raise VtoError(f"val_fraction must be in [0, 1), got {config.val_fraction}")
-    if config.perceptual not in ("auto", "vgg", "ssim_l1"):
-        raise VtoError(f"perceptual must be auto, vgg or ssim_l1, got '{config.perceptual}'")
-    if isinstance(config, EncoderConfig) and config.loss not in ("graphics", "rendering", "both"):
-        raise VtoError(f"encoder loss must be graphics, rendering or both, got '{config.loss}'")
+    for name, choices in _CHOICES.items():
+        if hasattr(config, name) and getattr(config, name) not in choices:
+            raise VtoError(f"{name} must be one of {', '.join(choices)}, got '{getattr(config, name)}'")
+
+
+def with_epochs(config, n_train: int):
+    """The config with `steps` from `epochs` when epochs > 0: ceil(epochs x n_train / batch_size)."""
+    if config.epochs == 0:
+        return config
+    batch = min(config.batch_size, n_train)
+    return dataclasses.replace(config, steps=max(1, math.ceil(config.epochs * n_train / batch)))
 
 
 def config_dict(config) -> dict:

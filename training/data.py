@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import torch
-from torch.utils.data import DataLoader, Dataset
+from torch.utils.data import DataLoader, Dataset, DistributedSampler
 
 from vto_core.dataset import DatasetReader
 from vto_core.errors import VtoError
@@ -56,28 +56,41 @@ def split(reader: DatasetReader, val_fraction: float) -> tuple[list[int], list[i
 
 
 class EpochSampler(torch.utils.data.Sampler):
-    """Sample positions forever, epoch after epoch, each epoch a permutation seeded by (seed, epoch).
+    """This process's sample positions forever, epoch after epoch; each epoch a DistributedSampler shard.
 
-    Starting at position `start` (= step x batch size) continues the order a run that reached that step had seen,
-    without loading the samples before it, so a resumed run trains on exactly the batches an unbroken one would.
+    Epoch e is torch's DistributedSampler permutation for (seed, e), of which rank r takes every world_size-th
+    position. `start` counts positions this process has already consumed (step x per-process batch): a resumed run
+    continues the order an unbroken one saw without loading the samples before it. With world_size processes and a
+    global batch B, the union of the ranks' batches at each step is the batch one process would draw with batch B
+    (when the dataset size divides by world_size; otherwise DistributedSampler repeats a few samples per epoch).
     """
 
-    def __init__(self, size: int, seed: int, start: int = 0):
-        self.size, self.seed, self.start = size, seed, start
+    def __init__(self, size: int, seed: int, start: int = 0, rank: int = 0, world_size: int = 1):
+        self.shard = DistributedSampler(range(size), num_replicas=world_size, rank=rank, shuffle=True, seed=seed)
+        self.start = start
 
     def __iter__(self):
-        epoch, offset = divmod(self.start, self.size)
+        epoch, offset = divmod(self.start, len(self.shard))
         while True:
-            generator = torch.Generator().manual_seed(self.seed * 1_000_003 + epoch)
-            yield from torch.randperm(self.size, generator=generator)[offset:].tolist()
+            self.shard.set_epoch(epoch)
+            yield from list(self.shard)[offset:]
             epoch, offset = epoch + 1, 0
 
 
-def training_batches(dataset: RenderDataset, batch_size: int, seed: int, step: int = 0, num_workers: int = 0):
-    """Endless training batches from optimiser step `step` on (see EpochSampler)."""
-    batch_size = min(batch_size, len(dataset))
-    sampler = EpochSampler(len(dataset), seed, step * batch_size)
-    return iter(DataLoader(dataset, batch_size=batch_size, sampler=sampler, num_workers=num_workers))
+def per_process_batch(batch_size: int, dataset_size: int, world_size: int = 1) -> int:
+    """The global batch (capped at the dataset size) split evenly over `world_size` processes."""
+    batch_size = min(batch_size, dataset_size)
+    if batch_size % world_size:
+        raise VtoError(f"batch_size {batch_size} does not split evenly over {world_size} processes")
+    return batch_size // world_size
+
+
+def training_batches(dataset: RenderDataset, batch_size: int, seed: int, position: int = 0, num_workers: int = 0,
+                     rank: int = 0, world_size: int = 1):
+    """Endless batches for this process, from global sample `position` (= steps done x global batch) on."""
+    local_batch = per_process_batch(batch_size, len(dataset), world_size)
+    sampler = EpochSampler(len(dataset), seed, position // world_size, rank, world_size)
+    return iter(DataLoader(dataset, batch_size=local_batch, sampler=sampler, num_workers=num_workers))
 
 
 def make_loader(dataset: RenderDataset, batch_size: int, seed: int, num_workers: int = 0, shuffle: bool = True):

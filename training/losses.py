@@ -77,6 +77,21 @@ def graphics_loss(g_true, g_pred, wraps=None):
     return parameter_difference(g_true, g_pred, wraps).square().sum(dim=1).mean()
 
 
+def weighted_total(terms):
+    """{name: (unweighted scalar tensor, weight)} -> (log dict, total = sum of weight x term).
+
+    The log dict (detached) holds every term as `name` and `name_weighted`, and `total`: each term's magnitude and
+    its share of the total are in the run's losses.jsonl.
+    """
+    losses, total = {}, 0.0
+    for name, (value, weight) in terms.items():
+        weighted = weight * value
+        total = total + weighted
+        losses[name], losses[f"{name}_weighted"] = value.detach(), weighted.detach()
+    losses["total"] = total.detach()
+    return losses, total
+
+
 def gradient_penalty(critic, real, fake):
     """WGAN-GP penalty E[(||grad critic(interp)|| - 1)^2] on random real/fake mixes; real, fake: (B, ...)."""
     if real.shape != fake.shape:

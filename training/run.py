@@ -5,12 +5,15 @@ from __future__ import annotations
 import json
 import math
 import os
+import sys
 import time
 from pathlib import Path
 
 import torch
 
 from vto_core.errors import VtoError
+
+from .distributed import Processes
 
 CHECKPOINT = "checkpoint.pt"
 CONFIG = "config.json"
@@ -103,7 +106,7 @@ class RunFolder:
 
 
 def check_finite(step: int, losses: dict[str, torch.Tensor | float]) -> dict[str, float]:
-    """Loss tensors -> floats; stops the run with a clear message on NaN or inf."""
+    """Loss values -> floats; stops the run with a clear message on NaN or inf."""
     values = {name: float(value) for name, value in losses.items()}
     bad = {name: value for name, value in values.items() if not math.isfinite(value)}
     if bad:
@@ -118,26 +121,61 @@ def _atomic_write_text(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
-def optimise(run: RunFolder, config, step: int, batches, losses_fn, optimiser, validate, save) -> int:
+def learning_rate(config, step: int) -> float:
+    """The lr of optimiser update `step` (0-based): linear warm-up, then constant (the paper) or cosine to 0."""
+    if step < config.warmup_steps:
+        return config.lr * (step + 1) / (config.warmup_steps + 1)
+    if config.schedule == "cosine":
+        span = max(config.steps - config.warmup_steps, 1)
+        return config.lr * 0.5 * (1.0 + math.cos(math.pi * (step - config.warmup_steps) / span))
+    return config.lr
+
+
+def progress(total: int, done: int, enabled: bool = True, stream=None):
+    """A tqdm bar of optimiser steps on stderr, only on a terminal: logs (SLURM, CI) get no carriage returns."""
+    from tqdm import tqdm
+
+    stream = stream if stream is not None else sys.stderr
+    return tqdm(total=total, initial=done, unit="step", desc="train", file=stream, dynamic_ncols=True,
+                mininterval=0.5, disable=not (enabled and stream.isatty()))
+
+
+def optimise(run: RunFolder, config, step: int, batches, losses_fn, optimiser, validate, save,
+             processes: Processes | None = None, scheduled=()) -> int:
     """The loop both trainers share: losses_fn(batch) -> (log terms, total); NaN stop, log, validate, checkpoint.
 
     Runs from `step` to config.steps; validate() -> dict of held-out numbers; save(step) writes a checkpoint.
+    The lr of `optimiser` and of the `scheduled` ones follows learning_rate(config, step). Under torchrun the
+    logged terms are averaged over the processes (so every rank stops together on NaN) and only rank 0 validates,
+    logs and saves.
     """
-    started, samples_seen = time.perf_counter(), 0
-    while step < config.steps:
-        batch = next(batches)
-        losses, total = losses_fn(batch)
-        values = check_finite(step + 1, losses)
-        optimiser.zero_grad(set_to_none=True)
-        total.backward()
-        optimiser.step()
-        step += 1
-        samples_seen += len(batch["g"])
-        if step % config.log_every == 0 or step == config.steps:
-            values["samples_per_s"] = samples_seen / (time.perf_counter() - started)
-            values.update(validate())
-            run.log(step, values)
-        if step % config.checkpoint_every == 0 or step == config.steps:
-            save(step)
-    save(step)
+    processes = processes or Processes(device=config.device)
+    started, samples_seen, saved_at = time.perf_counter(), 0, None
+    with progress(config.steps, step, processes.is_main) as bar:
+        while step < config.steps:
+            for scheduled_optimiser in (optimiser, *scheduled):
+                for group in scheduled_optimiser.param_groups:
+                    group["lr"] = learning_rate(config, step)
+            batch = next(batches)
+            losses, total = losses_fn(batch)
+            values = check_finite(step + 1, processes.mean(losses))
+            optimiser.zero_grad(set_to_none=True)
+            total.backward()
+            optimiser.step()
+            step += 1
+            samples_seen += len(batch["g"]) * processes.world_size
+            bar.update(1)
+            if step % config.log_every == 0 or step == config.steps:
+                values["lr"] = optimiser.param_groups[0]["lr"]
+                values["samples_per_s"] = samples_seen / (time.perf_counter() - started)
+                if processes.is_main:
+                    values.update(validate())
+                    run.log(step, values)
+                bar.set_postfix(total=f"{values['total']:.4g}", refresh=False)
+            if processes.is_main and (step % config.checkpoint_every == 0 or step == config.steps):
+                save(step)
+                saved_at = step
+    if processes.is_main and saved_at != step:
+        save(step)
+    processes.barrier()
     return step

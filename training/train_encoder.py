@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import torch
 
 from vto_core.dataset import DatasetReader
 from vto_core.errors import VtoError
 from vto_core.specs import RendererSpec
 
-from .config import EncoderConfig, config_dict
-from .data import RenderDataset, make_loader, split, training_batches
-from .losses import PerceptualDistance, graphics_loss, parameter_difference
+from .config import EncoderConfig, config_dict, with_epochs
+from .data import RenderDataset, make_loader, per_process_batch, split, training_batches
+from .distributed import Processes, processes
+from .losses import PerceptualDistance, graphics_loss, parameter_difference, weighted_total
 from .networks import Encoder, build
 from .run import RunFolder, optimise
 
@@ -39,21 +42,19 @@ def load_frozen_imitator(run_path: str, spec: RendererSpec, device: str,
 
 
 def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: EncoderConfig, wraps=None):
-    """g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g): (log dict, total)."""
+    """g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g): (log dict, total).
+
+    The log holds each term unweighted and `<term>_weighted` (as it enters the total), and the total.
+    """
     device = config.device
     source, render, g = (batch[k].to(device) for k in ("source", "render", "g"))
     g_hat = encoder(render)
-    losses, total = {}, torch.zeros((), device=device)
+    terms = {}  # name -> (unweighted value, weight)
     if config.loss in ("graphics", "both"):
-        loss_graphics = graphics_loss(g, g_hat, wraps)
-        total = total + loss_graphics
-        losses["graphics"] = loss_graphics.detach()
+        terms["graphics"] = (graphics_loss(g, g_hat, wraps), 1.0)
     if config.loss in ("rendering", "both"):
-        loss_rendering = perceptual(imitator(source, g_hat), render)
-        total = total + config.lambda_rendering * loss_rendering
-        losses["rendering"] = loss_rendering.detach()
-    losses["total"] = total.detach()
-    return losses, total
+        terms["rendering"] = (perceptual(imitator(source, g_hat), render), config.lambda_rendering)
+    return weighted_total(terms)
 
 
 @torch.no_grad()
@@ -70,43 +71,60 @@ def parameter_error(encoder: Encoder, loader, device: str, wraps=None) -> float:
 
 
 def train_encoder(data: str, imitator_run: str | None, out: str, config: EncoderConfig) -> RunFolder:
-    """Train (or resume) an encoder run in `out`; the imitator is needed unless loss == 'graphics'."""
-    # 1. Data and the frozen imitator (the rendering loss) first: bad inputs leave no run folder behind.
-    reader = DatasetReader(data)
-    device = config.device
-    use_rendering = config.loss in ("rendering", "both")
-    if use_rendering and not imitator_run:
+    """Train (or resume) an encoder run in `out`; the imitator is needed unless loss == 'graphics'.
+
+    Under torchrun every process calls this (see training.distributed); rank 0 writes the run folder.
+    """
+    reader = DatasetReader(data)  # bad inputs fail before a run folder exists
+    if config.loss in ("rendering", "both") and not imitator_run:
         raise VtoError("the rendering loss needs --imitator RUN (or --set loss=graphics)")
+    with processes(config.device) as procs:
+        return _train_encoder(reader, data, imitator_run, out, config, procs)
+
+
+def _train_encoder(reader: DatasetReader, data: str, imitator_run: str | None, out: str, config: EncoderConfig,
+                   procs: Processes) -> RunFolder:
+    # 1. Data and the frozen imitator (the rendering loss) first: bad inputs leave no run folder behind.
+    device = procs.device
+    use_rendering = config.loss in ("rendering", "both")
     res = reader.manifest["res"]
     image_size = [res, res] if isinstance(res, int) else list(res[::-1])  # (H, W); a user scene records (W, H)
     wraps = [p.wraps for p in reader.spec.modelled_params]
     imitator = load_frozen_imitator(imitator_run, reader.spec, device, image_size) if use_rendering else None
-    run = RunFolder(out)
-    run.save_config({**config_dict(config), "kind": "encoder", "data": str(data), "imitator": imitator_run,
-                     "spec": reader.spec.to_dict()})
-    torch.manual_seed(config.seed)
     train_positions, val_positions = split(reader, config.val_fraction)
+    config = with_epochs(config, len(train_positions))
+    run = RunFolder(out)
+    if procs.is_main:
+        run.save_config({**config_dict(config), "kind": "encoder", "data": str(data), "imitator": imitator_run,
+                         "spec": reader.spec.to_dict()})
+    procs.barrier()
+    runtime = dataclasses.replace(config, device=device)  # this process's device (cuda:LOCAL_RANK under torchrun)
+    torch.manual_seed(config.seed)
     train_set = RenderDataset(reader, train_positions)
     val_loader = (make_loader(RenderDataset(reader, val_positions), config.batch_size, 0, shuffle=False)
-                  if val_positions else None)
+                  if val_positions and procs.is_main else None)
 
-    # 2. Encoder, perceptual distance, optimiser; resume.
+    # 2. Encoder, perceptual distance, optimiser; resume (weights, optimiser and the data order).
     perceptual = PerceptualDistance(config.perceptual, config.vgg_weights or None).to(device) if use_rendering else None
     encoder = Encoder(reader.spec.size, config.width, config.n_layers, pool_size=config.pool_size).to(device)
     optimiser = torch.optim.Adam(encoder.parameters(), lr=config.lr, betas=(config.beta1, config.beta2))
-    step = 0
+    global_batch = per_process_batch(config.batch_size, len(train_set), procs.world_size) * procs.world_size
+    step, position = 0, 0
     checkpoint = run.load_checkpoint()
     if checkpoint is not None:
         encoder.load_state_dict(checkpoint["model"])
         optimiser.load_state_dict(checkpoint["optimizer"])
         step = checkpoint["step"]
-        run.truncate_log(step)
+        position = checkpoint.get("data_position", step * global_batch)
+        if procs.is_main:
+            run.truncate_log(step)
 
     def save(at_step: int) -> None:
         run.save_checkpoint({
             "kind": "encoder", "step": at_step, "model": encoder.state_dict(), "model_args": encoder.model_args,
             "optimizer": optimiser.state_dict(), "config": config_dict(config), "spec": reader.spec.to_dict(),
             "image_size": image_size, "imitator": imitator_run,
+            "data_position": position + (at_step - step) * global_batch,  # the sampler's state: samples consumed
         })
 
     def validate() -> dict[str, float]:
@@ -115,11 +133,14 @@ def train_encoder(data: str, imitator_run: str | None, out: str, config: Encoder
         return {"val_param_mse": parameter_error(encoder, val_loader, device, wraps)}
 
     # 3. Loop: g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g).
-    batches = training_batches(train_set, config.batch_size, config.seed, step, config.num_workers)
+    batches = training_batches(train_set, config.batch_size, config.seed, position, config.num_workers,
+                               procs.rank, procs.world_size)
+    model = procs.wrap(encoder)
     optimise(run, config, step, batches,
-             lambda batch: encoder_losses(encoder, imitator, perceptual, batch, config, wraps),
-             optimiser, validate, save)
+             lambda batch: encoder_losses(model, imitator, perceptual, batch, runtime, wraps),
+             optimiser, validate, save, procs)
 
     # 4. Loss plot.
-    run.plot(f"encoder ({reader.spec.renderer}, loss: {config.loss})")
+    if procs.is_main:
+        run.plot(f"encoder ({reader.spec.renderer}, loss: {config.loss})")
     return run

@@ -14,8 +14,10 @@ from training.losses import (  # noqa: E402
     generator_adversarial_loss,
     gradient_penalty,
     graphics_loss,
+    parameter_difference,
     sensitivity_loss,
     ssim,
+    weighted_total,
 )
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.metrics import ssim as numpy_ssim  # noqa: E402
@@ -354,14 +356,64 @@ def test_graphics_loss_takes_hue_on_the_circle():
     assert guess.grad[0, 0] > 0  # pushes 0.02 down towards 0.98 across the wrap, not up across the range
 
 
-def test_torch_ssim_equals_scikit_image():
+@pytest.mark.parametrize("dtype", [torch.float32, torch.float64])
+@pytest.mark.parametrize(("height", "width", "noise"), [(20, 26, 0.1), (11, 11, 0.05), (64, 64, 0.3), (32, 17, 0.02)])
+def test_torch_ssim_equals_scikit_image(dtype, height, width, noise):
+    """scikit-image 0.26 structural_similarity (Wang et al. settings) per image of a batch."""
     import numpy as np
     from skimage.metrics import structural_similarity
 
-    rng = np.random.default_rng(5)
-    a = rng.random((20, 26, 3))
-    b = np.clip(a + rng.normal(0, 0.1, a.shape), 0, 1)
-    expected = structural_similarity(a, b, gaussian_weights=True, sigma=1.5, use_sample_covariance=False,
-                                     data_range=1.0, channel_axis=-1)
-    as_tensor = lambda x: torch.from_numpy(x.transpose(2, 0, 1)[None].astype(np.float64))  # noqa: E731
-    assert float(ssim(as_tensor(a), as_tensor(b))[0]) == pytest.approx(expected, abs=1e-6)
+    rng = np.random.default_rng(height * width)
+    a = rng.random((2, height, width, 3))
+    b = np.clip(a + rng.normal(0, noise, a.shape), 0, 1)
+    as_tensor = lambda x: torch.from_numpy(x.transpose(0, 3, 1, 2).copy()).to(dtype)  # noqa: E731
+    got = ssim(as_tensor(a), as_tensor(b))
+    for index in range(2):
+        expected = structural_similarity(a[index], b[index], gaussian_weights=True, sigma=1.5,
+                                         use_sample_covariance=False, data_range=1.0, channel_axis=-1)
+        assert float(got[index]) == pytest.approx(expected, abs=1e-5 if dtype == torch.float32 else 1e-10)
+
+
+# --- weighted terms, validation error on the circle --------------------------------------------------------------
+
+
+def test_weighted_total_logs_each_term_both_ways():
+    imitation, sensitivity = torch.tensor(0.5, requires_grad=True), torch.tensor(0.004, requires_grad=True)
+    losses, total = weighted_total({"imitation": (imitation, 100.0), "sensitivity": (sensitivity, 1000.0)})
+    assert {k: round(float(v), 6) for k, v in losses.items()} == {
+        "imitation": 0.5, "imitation_weighted": 50.0, "sensitivity": 0.004, "sensitivity_weighted": 4.0, "total": 54.0}
+    total.backward()
+    assert (float(imitation.grad), float(sensitivity.grad)) == (100.0, 1000.0)
+    assert not any(value.requires_grad for value in losses.values())
+
+
+def test_wrapping_dimensions_come_from_the_spec():
+    from vto_core.specs import get_spec
+
+    spec = get_spec("hair")
+    wraps = [p.wraps for p in spec.modelled_params]
+    assert [name for name, w in zip(spec.modelled, wraps) if w] == ["hue"]
+    truth = torch.full((1, spec.size), 0.5)
+    guess = truth.clone()
+    hue = spec.modelled.index("hue")
+    truth[0, hue], guess[0, hue] = 0.98, 0.02
+    assert float(graphics_loss(truth, guess, wraps)) == pytest.approx(0.04**2, abs=1e-6)
+    assert float(parameter_difference(truth, guess, wraps)[0, hue]) == pytest.approx(0.04, abs=1e-6)
+    assert float(parameter_difference(guess, truth, wraps)[0, hue]) == pytest.approx(-0.04, abs=1e-6)
+    # an encoder's linear output may leave [0, 1]: 1.02 is 0.02 on the circle
+    assert float(parameter_difference(torch.tensor([[0.0]]), torch.tensor([[1.02]]), [True])[0, 0]) == \
+        pytest.approx(0.02, abs=1e-6)
+
+
+def test_validation_error_takes_hue_on_the_circle():
+    from training.train_encoder import parameter_error
+
+    class Says(torch.nn.Module):
+        """An 'encoder' that answers 0.02 for every parameter."""
+
+        def forward(self, images):
+            return torch.full((len(images), 2), 0.02)
+
+    batches = [{"g": torch.tensor([[0.98, 0.98]]), "render": torch.zeros(1, 3, 8, 8)}]
+    assert parameter_error(Says(), batches, "cpu", [True, False]) == pytest.approx((0.04**2 + 0.96**2) / 2, abs=1e-6)
+    assert parameter_error(Says(), batches, "cpu") == pytest.approx(0.96**2, abs=1e-6)

@@ -41,7 +41,13 @@ def test_imitator_loss_falls_on_real_renders(imitator_run):
     log = RunFolder(imitator_run).read_log()
     first, last = log[0], log[-1]
     assert last["step"] == 60
-    assert {"imitation", "sensitivity", "adversarial", "critic", "val_l1"} <= set(last)
+    assert {"imitation", "sensitivity", "adversarial", "critic", "val_l1", "val_sensitivity", "lr"} <= set(last)
+    # every term unweighted and as it enters the total (the paper's lambda_1 = 100, lambda_2 = 1000)
+    assert last["imitation_weighted"] == pytest.approx(100 * last["imitation"], rel=1e-5)
+    assert last["sensitivity_weighted"] == pytest.approx(1000 * last["sensitivity"], rel=1e-5)
+    assert last["adversarial_weighted"] == pytest.approx(last["adversarial"], rel=1e-5)
+    weighted = sum(last[f"{k}_weighted"] for k in ("imitation", "sensitivity", "adversarial"))
+    assert last["total"] == pytest.approx(weighted, rel=1e-4, abs=1e-4)
     assert np.mean([row["imitation"] for row in log[-3:]]) < first["imitation"]
     assert last["val_l1"] < first["val_l1"]
     assert (imitator_run / "losses.png").stat().st_size > 1000
@@ -102,6 +108,8 @@ def test_encoder_with_rendering_loss_trains_through_the_imitator(lipstick_datase
     config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=10"])
     last = train_encoder(str(lipstick_dataset), str(imitator_run), str(tmp_path / "both"), config).read_log()[-1]
     assert last["total"] == pytest.approx(last["graphics"] + 20 * last["rendering"], rel=1e-5)
+    assert last["rendering_weighted"] == pytest.approx(20 * last["rendering"], rel=1e-5)
+    assert last["graphics_weighted"] == last["graphics"]
     with pytest.raises(VtoError, match="needs --imitator"):
         train_encoder(str(lipstick_dataset), None, str(tmp_path / "none"), config)
     assert not (tmp_path / "none").exists()
@@ -169,6 +177,30 @@ def test_a_resumed_run_sees_the_batches_an_unbroken_run_sees(lipstick_dataset, t
                                                                                     config + ["steps=6"]))
     a, b = whole.load_checkpoint()["model"], resumed.load_checkpoint()["model"]
     assert all(torch.allclose(a[k], b[k], atol=1e-6) for k in a)
+    # the sampler's state is in the checkpoint: samples consumed (19 training samples, so batch 16)
+    assert whole.load_checkpoint()["data_position"] == resumed.load_checkpoint()["data_position"] == 6 * 16
+
+
+
+def test_batches_resume_and_shard_like_one_unbroken_process(lipstick_dataset):
+    """From a saved position the same batches follow; two DistributedSampler shards together are the same batches."""
+    from itertools import islice
+
+    from training.data import RenderDataset, training_batches
+
+    dataset = RenderDataset(DatasetReader(lipstick_dataset), list(range(18)))
+    ids = lambda batches, count: [batch["g"] for batch in islice(batches, count)]  # noqa: E731
+    unbroken = ids(training_batches(dataset, 8, seed=4), 6)  # 48 samples: across two epoch boundaries
+    assert [torch.equal(a, b) for a, b in zip(unbroken[3:], ids(training_batches(dataset, 8, 4, position=24), 3))] \
+        == [True] * 3
+    assert not torch.equal(unbroken[0], ids(training_batches(dataset, 8, seed=5), 1)[0])  # another seed, other order
+    ranks = [ids(training_batches(dataset, 8, 4, position=24, rank=r, world_size=2), 3) for r in (0, 1)]
+    for step in range(3):  # each rank gets 4 of the 8; together the very samples of the unbroken batch
+        together = torch.cat([ranks[0][step], ranks[1][step]])
+        assert len(ranks[0][step]) == 4 and sorted(map(tuple, together.tolist())) == \
+            sorted(map(tuple, unbroken[3 + step].tolist()))
+    with pytest.raises(VtoError, match="batch_size 9 does not split evenly over 2 processes"):
+        training_batches(dataset, 9, 4, world_size=2)
 
 
 def test_epoch_sampler_continues_where_it_stopped():
@@ -177,22 +209,6 @@ def test_epoch_sampler_continues_where_it_stopped():
     unbroken = list(__import__("itertools").islice(iter(EpochSampler(7, seed=3)), 20))
     resumed = list(__import__("itertools").islice(iter(EpochSampler(7, seed=3, start=9)), 11))
     assert resumed == unbroken[9:] and sorted(unbroken[:7]) == list(range(7)) and unbroken[:7] != unbroken[7:14]
-
-
-@pytest.mark.parametrize("content, message", [
-    ({"use_gan": "false"}, "'use_gan' must be a bool"),
-    ({"steps": 2.5}, "'steps' must be a int"),
-    ({"lr": True}, "'lr' must be a float"),
-    ({"log_every": 0}, "log_every must be at least 1"),
-    ({"checkpoint_every": -1}, "checkpoint_every must be at least 1"),
-    ({"nonsense": 1}, "unknown setting"),
-])
-def test_config_files_are_type_checked(content, message, tmp_path):
-    path = tmp_path / "config.json"
-    path.write_text(json.dumps(content))
-    with pytest.raises(VtoError, match=message):
-        resolve_config(ImitatorConfig, str(path))
-    assert resolve_config(ImitatorConfig, None, ["use_gan=false", "lr=0.001"]).use_gan is False
 
 
 def test_the_encoder_refuses_an_imitator_for_another_spec_or_size(lipstick_dataset, imitator_run, tmp_path):

@@ -152,12 +152,37 @@ def test_ssim_decreases_as_noise_increases():
     assert scores[-1] < 0.5
 
 
-def test_ssim_equals_scikit_image():
+SKIMAGE_SSIM = dict(gaussian_weights=True, sigma=1.5, use_sample_covariance=False, data_range=1.0)
+
+
+@pytest.mark.parametrize("shape, noise", [((24, 30, 3), 0.1), ((11, 11, 3), 0.05), ((64, 64, 3), 0.3),
+                                          ((32, 17, 1), 0.1), ((40, 12, 4), 0.02)])
+def test_ssim_equals_scikit_image(shape, noise):
+    """scikit-image 0.26 structural_similarity with the Wang et al. settings, on images of 11 px and more."""
     from skimage.metrics import structural_similarity
 
-    rng = np.random.default_rng(4)
-    a = rng.random((24, 30, 3))
-    b = np.clip(a + rng.normal(0, 0.1, a.shape), 0, 1)
-    expected = structural_similarity(a, b, gaussian_weights=True, sigma=1.5, use_sample_covariance=False,
-                                     data_range=1.0, channel_axis=-1)
+    rng = np.random.default_rng(sum(shape))
+    a = rng.random(shape)
+    b = np.clip(a + rng.normal(0, noise, a.shape), 0, 1)
+    expected = structural_similarity(a, b, channel_axis=-1, **SKIMAGE_SSIM)
     assert ssim(a, b) == pytest.approx(expected, abs=1e-12)
+    assert ssim(a[..., 0], b[..., 0]) == pytest.approx(structural_similarity(a[..., 0], b[..., 0], **SKIMAGE_SSIM),
+                                                       abs=1e-12)
+
+
+def test_ssim_equals_scikit_image_on_flat_and_opposite_images():
+    from skimage.metrics import structural_similarity
+
+    flat, ramp = np.full((16, 16, 3), 0.25), np.linspace(0, 1, 16 * 16 * 3).reshape(16, 16, 3)
+    for a, b in ((flat, flat), (flat, np.full((16, 16, 3), 0.75)), (ramp, 1 - ramp)):
+        assert ssim(a, b) == pytest.approx(structural_similarity(a, b, channel_axis=-1, **SKIMAGE_SSIM), abs=1e-12)
+
+
+def test_scikit_image_refuses_what_ssim_still_measures():
+    """Why vto_core keeps its own SSIM: scikit-image needs 11 px, the encoder's thumbnails can be smaller."""
+    from skimage.metrics import structural_similarity
+
+    a = _random_image(9, (8, 10, 3))
+    with pytest.raises(ValueError):
+        structural_similarity(a, a * 0.9, channel_axis=-1, **SKIMAGE_SSIM)
+    assert 0.0 < ssim(a, a * 0.9) < 1.0
