@@ -76,14 +76,19 @@ def cmd_eval(argv: list[str]) -> int:
                                                      "imitator:10,render:25")
     parser.add_argument("--search-from-mean", default="", help="render budgets of render search from the mean preset, "
                                                                "e.g. 400")
+    parser.add_argument("--compare", action="append", default=[], metavar="NAME=MODEL",
+                        help="another encoder of the same spec, evaluated on the same references (repeatable)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
+    compare = tuple(tuple(item.split("=", 1)) for item in args.compare)
+    if any(len(pair) != 2 or not all(pair) for pair in compare):
+        raise VtoError(f"--compare takes NAME=MODEL.onnx, got {args.compare}")
     try:
         from_mean = tuple(int(b) for b in args.search_from_mean.split(",") if b.strip())
     except ValueError:
         raise VtoError(f"--search-from-mean takes render budgets like 100,400, got '{args.search_from_mean}'") from None
     settings = EvalSettings(args.n, args.res, args.samples, args.seed, tuple(r for r in args.refine.split(",") if r),
-                            from_mean, args.imitator, quiet=args.quiet)
+                            from_mean, args.imitator, compare, quiet=args.quiet)
     summary = run_eval(args.model, args.out, settings)
     print(json.dumps({"out": args.out, **{m: {"psnr": s["psnr"][0], "ssim": s["ssim"][0], "ms": s["ms_per_reference"]}
                                           for m, s in summary.items()}}))

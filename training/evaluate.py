@@ -16,7 +16,7 @@ from __future__ import annotations
 import json
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +51,7 @@ class EvalSettings:
     refine: tuple[str, ...] = ()  # refinements of the encoder's estimate: "imitator:K", "render:B"
     search_from_mean: tuple[int, ...] = ()  # render budgets of render search started at the mean preset
     imitator: str | None = None  # imitator run for imitator:K
+    compare: tuple[tuple[str, str], ...] = ()  # (name, ONNX path): other encoders of the same spec, same references
     sheet_rows: int = 6
     quiet: bool = False
 
@@ -134,6 +135,8 @@ def methods(settings: EvalSettings) -> dict[str, tuple[str, int]]:
             found[f"encoder + render search {amount}"] = (kind, amount)
     for budget in settings.search_from_mean:
         found[f"render search {budget} from the mean preset"] = ("render from mean", budget)
+    for index, (name, _) in enumerate(settings.compare):
+        found[name] = ("other encoder", index)
     return found
 
 
@@ -150,6 +153,20 @@ def check_settings(settings: EvalSettings) -> None:
         raise VtoError(f"--search-from-mean budgets must be >= 1, got {list(settings.search_from_mean)}")
     if any(kind == "imitator" for kind, _ in methods(settings).values()) and not settings.imitator:
         raise VtoError("--refine imitator:K needs --imitator RUN")
+    names, builtin = [name for name, _ in settings.compare], methods(replace(settings, compare=()))
+    if len(set(names)) != len(names) or any(name in builtin for name in names):
+        raise VtoError(f"--compare names must be unique and differ from the built-in methods, got {names}")
+
+
+def other_sessions(settings: EvalSettings, session: EncoderSession) -> list[EncoderSession]:
+    """The --compare encoders, each checked to estimate the same spec from the same input size as `session`."""
+    others = []
+    for name, path in settings.compare:
+        other = EncoderSession(path)
+        if not other.spec.same_as(session.spec) or tuple(other.input_size) != tuple(session.input_size):
+            raise VtoError(f"--compare {name}: {path} estimates another spec or input size than the evaluated model")
+        others.append(other)
+    return others
 
 
 def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
@@ -165,6 +182,7 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
     check_settings(settings)
     session = EncoderSession(model)
     spec = session.spec
+    others = other_sessions(settings, session)
     compared = methods(settings)
     names = list(compared)
     out_dir = Path(out)
@@ -221,6 +239,10 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
                 x, target = imitator_inputs(refiner, spec.renderer, source_a, reference, settings.samples, cycles_seed)
                 found = refiner.refine(x, target, encoder_unit, amount)
                 spent_before = ms["encoder"]
+            elif kind == "other encoder":
+                estimates[name] = others[amount].predict(reference)[0]
+                ms[name] = 1000 * (time.perf_counter() - started)
+                continue
             elif kind == "render":
                 found = refine_by_render(lambda u: on_a(unit_values(u)), reference, encoder_unit, amount,
                                          cycles_seed, wraps)

@@ -233,6 +233,11 @@ INVISIBLE = ("at 64 px and the default samples its 25th->75th percentile change 
              "noise on the lips (4x4 block means): the encoder cannot learn it; select it with --params to model it")
 
 
+ROUGHNESS_BELOW_BAR = ("its 25th->75th percentile change stands 2.36x (less than 3x) above render noise on the lips "
+                       "at 64 px, even under a gloss of 2: a rough and a sharp coat spread the same highlight over a "
+                       "few pixels, so the encoder cannot learn it; select it with --params to model it")
+
+
 def _lipstick() -> RendererSpec:
     main, ext = "main", "extended"
     p = ParamSpec
@@ -246,7 +251,8 @@ def _lipstick() -> RendererSpec:
             p("gloss", "Gloss", 0.0, math.inf, 0.5, "", main, scale=1.0, unit_high=8.0,
               description="Amount of gloss: the clear coat's reflectance, saturating as gloss grows (0 = none). "
                           "Sampled and estimated over [0, 8], twice the glossiest preset"),
-            p("gloss_roughness", "Gloss Roughness", 0.0, 1.0, 0.3, "", main, description="Roughness of the gloss layer"),
+            p("gloss_roughness", "Gloss Roughness", 0.0, 1.0, 0.3, "", main, unmodelled_reason=ROUGHNESS_BELOW_BAR,
+              description="Roughness of the gloss layer (the clear coat's roughness)"),
             p("reflection", "Reflection", 0.0, 1.0, 0.2, "", main, description="Environment reflection intensity"),
             p("sparkle_density", "Sparkle Density", 0.0, 1.0, 0.0, "", ext, unmodelled_reason=INVISIBLE, description="Fraction of the surface with glitter"),
             p("sparkle_size", "Sparkle Size", 0.0, 1.0, 0.3, "", ext, unmodelled_reason=INVISIBLE, description="Size of the glitter flakes"),

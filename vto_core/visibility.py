@@ -16,7 +16,7 @@ _LOOKS = {"lipstick": {"opacity": 1.0}, "hair": {}}
 # Modelled by default although below the bar (measured on the looks below, 64 px, default samples): the encoder
 # can still learn them from the whole lips or hair, but not every 4x4 block shows them. `vto spec` names them.
 BELOW_BAR = {
-    "lipstick": {"gloss_roughness": (2.36, "a rough or a sharp coat spreads the same light differently")},
+    "lipstick": {},
     "hair": {},
 }
 _CONTEXT = {"sparkle": {"sparkle_density": 0.5, "sparkle_intensity": 0.75}, "gloss_roughness": {"gloss": 2.0}}

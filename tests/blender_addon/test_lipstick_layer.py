@@ -7,80 +7,20 @@ pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
 from blender_addon.lipstick import render_lipstick  # noqa: E402
-from blender_addon.nodes_lipstick import lipstick_group  # noqa: E402
-from blender_addon.render import configure_cycles, render_passes  # noqa: E402
+from blender_addon.scene_furnace import FURNACE_SCENE, furnace_scene, render_furnace, seen_colour  # noqa: E402
+from blender_addon.render import render_passes  # noqa: E402
 from vto_core.colour import linear_to_srgb, srgb_to_linear  # noqa: E402
 from vto_core.presets import load_presets  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
 
-FURNACE_SCENE = "VTO Test Furnace"
 BRIGHTEST = {"opacity": 1.0, "red": 255.0, "green": 255.0, "blue": 255.0, "gloss": 1e30, "gloss_roughness": 0.0,
              "reflection": 1.0, "metallic": 1.0, "sheen": 1.0, "sparkle_density": 1.0, "sparkle_size": 1.0,
              "sparkle_intensity": 1.0}
 
 
-def _furnace(uv_map: bool = True):
-    """A sphere wearing the group in a uniform white world (radiance 1): nothing that conserves energy exceeds 1."""
-    scene = bpy.data.scenes.get(FURNACE_SCENE)
-    if scene is not None:
-        return scene
-    scene = bpy.data.scenes.new(FURNACE_SCENE)
-    world = bpy.data.worlds.new(FURNACE_SCENE)
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (1, 1, 1, 1)
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
-    scene.world = world
-    mesh = bpy.data.meshes.new(FURNACE_SCENE)
-    import bmesh
-
-    shape = bmesh.new()
-    bmesh.ops.create_uvsphere(shape, u_segments=32, v_segments=16, radius=1.0, calc_uvs=uv_map)
-    shape.to_mesh(mesh)
-    shape.free()
-    mesh.shade_smooth()
-    material = bpy.data.materials.new(FURNACE_SCENE)
-    material.use_nodes = True
-    nodes = material.node_tree.nodes
-    nodes.clear()
-    lips = nodes.new("ShaderNodeBsdfDiffuse")
-    lips.inputs["Color"].default_value = (1, 1, 1, 1)
-    makeup = nodes.new("ShaderNodeGroup")
-    makeup.name = "VTO Lipstick"
-    makeup.node_tree = lipstick_group()
-    output = nodes.new("ShaderNodeOutputMaterial")
-    material.node_tree.links.new(lips.outputs[0], makeup.inputs["Lips"])
-    material.node_tree.links.new(makeup.outputs[0], output.inputs["Surface"])
-    mesh.materials.append(material)
-    sphere = bpy.data.objects.new(FURNACE_SCENE, mesh)
-    sphere.pass_index = 1
-    scene.collection.objects.link(sphere)
-    camera = bpy.data.objects.new(FURNACE_SCENE + " Camera", bpy.data.cameras.new(FURNACE_SCENE))
-    camera.location = (0, 0, 3.2)
-    scene.collection.objects.link(camera)
-    scene.camera = camera
-    scene.view_layers[0].use_pass_object_index = True
-    return scene
-
-
-def _render_furnace(values, samples=64):
-    scene = _furnace()
-    node = bpy.data.materials[FURNACE_SCENE].node_tree.nodes["VTO Lipstick"]
-    full = get_spec("lipstick").full_values(values)
-    for param in get_spec("lipstick").params:
-        node.inputs[param.socket].default_value = full[param.name]
-    configure_cycles(scene, 32, samples, 0)
-    scene.cycles.sample_clamp_direct = scene.cycles.sample_clamp_indirect = 0.0  # a clamp would hide extra energy
-    scene.cycles.use_denoising = False
-    scene.cycles.max_bounces = scene.cycles.glossy_bounces = scene.cycles.diffuse_bounces = 8
-    passes = render_passes(scene)
-    sphere = np.abs(passes["IndexOB"][..., 0] - 1) < 0.5
-    return passes["Combined"][..., :3], sphere
-
-
 @pytest.mark.slow
 def test_makeup_layer_reflects_no_more_light_than_arrives():
     """White furnace: with everything at its brightest, the sphere is no brighter than the world around it."""
-    linear, sphere = _render_furnace(BRIGHTEST)
+    linear, sphere = render_furnace(BRIGHTEST)
     assert sphere.sum() > 200
     assert np.isfinite(linear).all()
     mean = linear[sphere].mean()
@@ -96,11 +36,9 @@ def test_the_set_colour_is_the_colour_seen():
     """
     rgb = np.array([190.0, 20.0, 35.0])
     for gloss, most_white in ((0.0, 0.12), (4.0, 0.35)):  # a coat of F0 0.24 averages ~28 % over the sphere
-        linear, sphere = _render_furnace({"opacity": 1.0, "red": rgb[0], "green": rgb[1], "blue": rgb[2],
+        linear, sphere = render_furnace({"opacity": 1.0, "red": rgb[0], "green": rgb[1], "blue": rgb[2],
                                           "gloss": gloss, "gloss_roughness": 0.3, "reflection": 0.0}, samples=32)
-        seen, target = np.median(linear[sphere], axis=0), srgb_to_linear(rgb / 255)
-        white = float(np.dot(seen - target, 1 - target) / np.dot(1 - target, 1 - target))
-        residual = np.abs(seen - (target * (1 - white) + white)).max()
+        seen, white, residual = seen_colour(linear, sphere, rgb)
         assert 0 <= white <= most_white, f"gloss {gloss}: white share {white:.3f} (seen {linear_to_srgb(seen) * 255})"
         assert residual < 0.02, f"gloss {gloss}: colour off the set one by {residual:.3f} beyond the white share"
 
@@ -115,14 +53,14 @@ def test_lip_line_needs_a_uv_map_and_does_nothing_without_one():
     with_line = render_lipstick({"opacity": 1.0, "lip_line": 1.0}, 1, 32, 4)
     without = render_lipstick({"opacity": 1.0, "lip_line": 0.0}, 1, 32, 4)
     assert np.abs(with_line - without).mean() > 0.001  # the default lips have a UV map: the contour darkens
-    scene = _furnace()
+    scene = furnace_scene()
     mesh = bpy.data.objects[FURNACE_SCENE].data
     saved = [layer.name for layer in mesh.uv_layers]
     for name in saved:
         mesh.uv_layers.remove(mesh.uv_layers[name])
     try:
-        plain, sphere = _render_furnace({"opacity": 1.0, "red": 200.0, "lip_line": 0.0}, samples=4)
-        lined, _ = _render_furnace({"opacity": 1.0, "red": 200.0, "lip_line": 1.0}, samples=4)
+        plain, sphere = render_furnace({"opacity": 1.0, "red": 200.0, "lip_line": 0.0}, samples=4)
+        lined, _ = render_furnace({"opacity": 1.0, "red": 200.0, "lip_line": 1.0}, samples=4)
     finally:
         for name in saved:
             mesh.uv_layers.new(name=name)

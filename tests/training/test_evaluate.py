@@ -25,7 +25,7 @@ from vto_core.specs import get_spec  # noqa: E402
 
 RES, SAMPLES, N = 16, 2, 2
 METHODS = {"mean preset", "nearest preset", "encoder", "encoder + imitator 3", "encoder + render search 5",
-           "render search 5 from the mean preset"}
+           "render search 5 from the mean preset", "same encoder"}
 SPEC = get_spec("lipstick", "opacity,red,green,blue")
 
 
@@ -51,7 +51,7 @@ def evaluated(models, tmp_path_factory):
     with contextlib.redirect_stdout(printed):
         assert cmd_eval(["--model", models[0], "--imitator", models[1], "--n", str(N), "--res", str(RES), "--samples",
                          str(SAMPLES), "--refine", "imitator:3,render:5", "--search-from-mean", "5", "--quiet",
-                         "--out", str(out)]) == 0
+                         "--compare", f"same encoder={models[0]}", "--out", str(out)]) == 0
     return out, json.loads(printed.getvalue().strip().splitlines()[-1])
 
 
@@ -80,6 +80,13 @@ def test_every_method_has_finite_figures_and_the_baselines_are_there(evaluated):
         assert look["methods"]["nearest preset"]["estimate"] == pytest.approx({k: nearest[k] for k in SPEC.modelled})
         assert look["buckets"]
     assert len({look["source_a"] for look in results["looks"]} | {look["source_b"] for look in results["looks"]}) == 2 * N
+
+
+def test_a_compared_encoder_is_evaluated_on_the_same_references(evaluated):
+    looks = json.loads((evaluated[0] / "results.json").read_text())["looks"]
+    for look in looks:
+        same, encoder = look["methods"]["same encoder"], look["methods"]["encoder"]
+        assert same["estimate"] == encoder["estimate"] and same["psnr"] == encoder["psnr"]
 
 
 def test_the_comparison_renders_on_source_b_with_the_truths_cycles_seed(evaluated):
@@ -116,11 +123,14 @@ def test_tables_plots_and_contact_sheet_are_written(evaluated):
     (["--refine", "imitator:3", "--imitator", "{tmp}/no-run"], "no imitator run folder"),
     (["--n", "0"], "--n must be at least 1"),
     (["--search-from-mean", "many"], "--search-from-mean takes render budgets"),
+    (["--compare", "no-equals-sign"], "--compare takes NAME=MODEL"),
+    (["--compare", "encoder={model}"], "names must be unique and differ from the built-in"),
+    (["--compare", "other={tmp}/junk.onnx"], "cannot load"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(argv, message, models, tmp_path):
     (tmp_path / "junk.onnx").write_bytes(b"not a model")
     args = {"--model": models[0], "--out": str(tmp_path / "out"), "--n": "1", "--res": str(RES), "--samples": "1"}
-    args.update(zip(argv[::2], (a.replace("{tmp}", str(tmp_path)) for a in argv[1::2])))
+    args.update(zip(argv[::2], (a.replace("{tmp}", str(tmp_path)).replace("{model}", models[0]) for a in argv[1::2])))
     with pytest.raises(VtoError, match=message) as caught:
         cmd_eval([x for pair in args.items() for x in pair])
     assert "\n" not in str(caught.value)
