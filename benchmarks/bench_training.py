@@ -12,8 +12,6 @@ dataset, e.g. `vto dataset lipstick --out DATA --n 512 --seed 5 --res 32 --sampl
 from __future__ import annotations
 
 import argparse
-import platform
-import re
 import tempfile
 import time
 from pathlib import Path
@@ -21,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from benchmarks.common import RESULTS, best_time
+from benchmarks.common import best_time, table, write_section
 from training.config import EncoderConfig, ImitatorConfig, resolve_config
 from training.export import export_encoder
 from training.losses import PerceptualDistance
@@ -96,25 +94,6 @@ def inference_times(res: int) -> tuple[float, float, float]:
     return onnx_ms, torch_ms, result["max_abs_diff"]
 
 
-def write_section(name: str, text: str) -> None:
-    """Replace (or append) section `name` of benchmarks/results/training.md, between its two markers."""
-    path = RESULTS / "training.md"
-    old = path.read_text() if path.exists() else "# Training benchmarks\n"
-    begin, end = f"<!-- {name} -->", f"<!-- /{name} -->"
-    block = f"{begin}\n{text.strip()}\n\nMachine: {platform.machine()}, {torch.get_num_threads()} torch threads, " \
-            f"Python {platform.python_version()}; written {time.strftime('%Y-%m-%d %H:%M')}.\n{end}"
-    pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end), re.S)
-    new = pattern.sub(lambda _: block, old) if pattern.search(old) else old.rstrip() + "\n\n" + block + "\n"
-    path.write_text(new)
-    print(block)
-
-
-def table(header: list[str], rows: list[list]) -> str:
-    """A markdown table."""
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    return "\n".join(lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows])
-
-
 def throughput(device: str) -> None:
     """Samples/s of full training steps and encoder inference times -> the 'throughput' section."""
     torch.manual_seed(0)
@@ -127,7 +106,7 @@ def throughput(device: str) -> None:
     for res in (64, 128, 256):
         onnx_ms, torch_ms, difference = inference_times(res)
         inference.append([res, f"{onnx_ms:.2f}", f"{torch_ms:.2f}", f"{difference:.1e}"])
-    write_section(f"throughput-{device}", (
+    write_section("training", f"throughput-{device}", (
         f"## Training throughput on {device}\n\n"
         + table(["network", "width", "px", "samples/s (batch 16, m = 7)"], rows)
         + "\n\nImitator steps include one critic update with gradient penalty, the imitation loss, the sensitivity "
@@ -164,7 +143,7 @@ def loss_terms(data: str, steps: int, lambdas: list[float]) -> None:
                      f"{seconds:.0f}"])
     reader_res = resolve_res(data)
     pixels = 3 * reader_res * reader_res
-    write_section("loss-terms", (
+    write_section("training", "loss-terms", (
         "## Imitator loss terms against lambda_sens (how the defaults were chosen)\n\n"
         f"Tiny imitator ({', '.join(TINY_IMITATOR)}), {steps} steps on `{data}` ({reader_res} px, "
         f"{pixels} values per image). At the first log (step {first['step']}, lambda_sens {lambdas[0]:g}): "
@@ -210,7 +189,7 @@ def schedules(data: str, steps: int) -> None:
         rows.append([name, f"{at[min(at, key=lambda s: abs(s - steps // 3))]:.4f}",
                      f"{at[min(at, key=lambda s: abs(s - 2 * steps // 3))]:.4f}", f"{log[-1]['val_param_mse']:.4f}",
                      f"{seconds:.0f}"])
-    write_section("schedules", (
+    write_section("training", "schedules", (
         "## Encoder schedules in the same time (graphics loss, default width 32, 4 layers, batch 16)\n\n"
         f"Every run takes the same {steps} steps on `{data}` ({resolve_res(data)} px), so the same compute: the "
         "steps cost the same whatever the lr (wall times differ only by the load of this shared machine). Held-out "

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import platform
+import re
 import time
 from pathlib import Path
 
@@ -34,3 +36,31 @@ def write_table(name: str, title: str, header: list[str], rows: list[list], note
     path.write_text(text)
     print(text)
     return path
+
+
+def machine() -> str:
+    """One line about this machine: processor, cores, Python (and torch's threads where torch is loaded)."""
+    import sys
+
+    torch = sys.modules.get("torch")
+    threads = f", {torch.get_num_threads()} torch threads" if torch is not None else ""
+    return f"{platform.machine()}, {os.cpu_count()} cores{threads}, Python {platform.python_version()}"
+
+
+def table(header: list[str], rows: list[list]) -> str:
+    """A markdown table."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return "\n".join(lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows])
+
+
+def write_section(result: str, name: str, text: str) -> None:
+    """Replace (or append) section `name` of benchmarks/results/RESULT.md, between its two markers."""
+    path = RESULTS / f"{result}.md"
+    old = path.read_text() if path.exists() else f"# {result.capitalize()} benchmarks\n"
+    begin, end = f"<!-- {name} -->", f"<!-- /{name} -->"
+    block = f"{begin}\n{text.strip()}\n\nMachine: {machine()}; written {time.strftime('%Y-%m-%d %H:%M')}.\n{end}"
+    pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end), re.S)
+    new = pattern.sub(lambda _: block, old) if pattern.search(old) else old.rstrip() + "\n\n" + block + "\n"
+    RESULTS.mkdir(exist_ok=True)
+    path.write_text(new)
+    print(block)
