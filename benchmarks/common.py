@@ -53,14 +53,14 @@ def table(header: list[str], rows: list[list]) -> str:
     return "\n".join(lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows])
 
 
-def write_section(result: str, name: str, text: str) -> None:
-    """Replace (or append) section `name` of benchmarks/results/RESULT.md, between its two markers."""
-    path = RESULTS / f"{result}.md"
+def write_section(result: str, name: str, text: str, results: Path = RESULTS) -> None:
+    """Replace (or append) section `name` of RESULTS/RESULT.md (benchmarks/results/), between its two markers."""
+    path = Path(results) / f"{result}.md"
     old = path.read_text() if path.exists() else f"# {result.capitalize()} benchmarks\n"
     begin, end = f"<!-- {name} -->", f"<!-- /{name} -->"
     block = f"{begin}\n{text.strip()}\n\nMachine: {machine()}; written {time.strftime('%Y-%m-%d %H:%M')}.\n{end}"
     pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end), re.S)
     new = pattern.sub(lambda _: block, old) if pattern.search(old) else old.rstrip() + "\n\n" + block + "\n"
-    RESULTS.mkdir(exist_ok=True)
+    path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(new)
     print(block)

@@ -68,6 +68,7 @@ class EncoderConfig(CommonConfig):
     pool_size: int = 4  # spatial size before the linear head (1 = global average pooling)
     lambda_rendering: float = 20.0
     loss: str = "both"  # ablation: graphics | rendering | both
+    augment: bool = False  # mirrored and shifted views of each render (training/data.augment)
 
 
 # Named settings for --config NAME (a JSON file path works too). The paper's schedule is the defaults' optimiser
