@@ -105,7 +105,7 @@ def augment(batch: dict, max_shift: int = 3) -> dict:
     shifted by up to `max_shift` px each way (wrapping); 'source' and 'render' (B, 3, H, W) move together."""
     images = {k: batch[k] for k in ("source", "render") if k in batch}
     first = next(iter(images.values()))
-    mirrored = (torch.rand(len(first)) < 0.5).view(-1, 1, 1, 1)
+    mirrored = (torch.rand(len(first), device=first.device) < 0.5).view(-1, 1, 1, 1)
     dy, dx = (int(v) for v in torch.randint(-max_shift, max_shift + 1, (2,)))
     moved = {k: torch.roll(torch.where(mirrored, v.flip(-1), v), (dy, dx), dims=(-2, -1)) for k, v in images.items()}
     return {**batch, **moved}
