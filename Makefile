@@ -11,7 +11,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/vto demo --out out/demo
+	$(VENV)/bin/vto demo --size full --out out/demo
 
 test: $(STAMP)
 	$(PY) -m pytest -q

@@ -1,6 +1,6 @@
 """Run every benchmark in turn (`make bench`)."""
 
-from benchmarks import bench_dataset, bench_hair_match, bench_render, bench_training
+from benchmarks import bench_batch, bench_dataset, bench_hair_match, bench_render, bench_training
 
 
 def main() -> None:
@@ -9,6 +9,7 @@ def main() -> None:
     bench_hair_match.main()
     bench_dataset.main()
     bench_training.main()
+    bench_batch.main([])
 
 
 if __name__ == "__main__":

@@ -45,44 +45,6 @@ def cmd_render(argv: list[str]) -> int:
     return 0
 
 
-DEMO_LIPSTICKS = ("Bare Nude", "Classic Red", "Berry Stain", "Midnight Vinyl", "Champagne Glitter")
-DEMO_HAIR = ("Natural Brown", "Copper Red", "Platinum", "Ombre Copper", "Teal Fashion")
-
-
-def cmd_demo(argv: list[str]) -> int:
-    """vto demo --out DIR: render expert presets on the embedded default sources, plus a contact sheet."""
-    import numpy as np
-
-    from vto_core.presets import load_presets
-
-    parser = ArgumentParser(prog="vto demo", description="render presets on the default lips and hair scenes")
-    parser.add_argument("--out", default="out/demo")
-    parser.add_argument("--res", type=int, default=128)
-    parser.add_argument("--samples", type=int, default=32)
-    args = parser.parse_args(argv)
-    rows = []
-    for renderer, names in (("lipstick", DEMO_LIPSTICKS), ("hair", DEMO_HAIR)):
-        presets = load_presets(renderer)
-        row = [render(renderer, {"opacity": 0.0} if renderer == "lipstick" else {"intensity": 0.0}, 0, args.res, args.samples)]
-        for name in names:
-            image = render(renderer, presets[name], 0, args.res, args.samples)
-            path = f"{args.out}/{renderer}_{name.lower().replace(' ', '_')}.png"
-            write_image(_ensure_parent(path), image)
-            row.append(image)
-        rows.append(np.concatenate(row, axis=1))
-    sheet = write_image(_ensure_parent(f"{args.out}/sheet.png"), np.concatenate(rows, axis=0))
-    print(json.dumps({"sheet": sheet, "columns": ["source (no product)", *DEMO_LIPSTICKS],
-                      "hair_columns": ["source", *DEMO_HAIR]}))
-    return 0
-
-
-def _ensure_parent(path: str) -> str:
-    import os
-
-    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
-    return path
-
-
 def _launcher() -> list[str]:
     """How to start another `vto` like this one: the Blender binary (`blender -b FILE -c vto`) or this Python."""
     import os

@@ -23,8 +23,11 @@ COMMANDS = {
     "scene-params": ("blender_addon.scene_params", "cmd_scene_params",
                      "list which lipstick group inputs visibly change a user's scene (needs bpy)"),
     "match": ("blender_addon.match", "cmd_match", "estimate a renderer's parameters from a reference image"),
+    "batch": ("blender_addon.batch", "cmd_batch",
+              "estimate a folder of product photos: median presets, an asset library, a contact sheet"),
     "eval": ("training.cli", "cmd_eval", "the paper's transfer experiment on an exported encoder (needs bpy)"),
-    "demo": ("blender_addon.commands", "cmd_demo", "render expert presets on the embedded default scenes"),
+    "demo": ("training.demo", "cmd_demo", "the whole pipeline on the default scene: data, imitator, encoder, ONNX, "
+                                          "evaluation, HTML report (needs bpy and torch)"),
 }
 
 

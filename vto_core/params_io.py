@@ -1,4 +1,4 @@
-"""Parameter values from the command line: inline JSON, a JSON file, or preset:NAME."""
+"""Parameter values from the command line: inline JSON, a JSON file, preset:NAME or preset:NAME@PRESETS.json."""
 
 from __future__ import annotations
 
@@ -10,14 +10,20 @@ from .presets import load_presets
 
 
 def parse_params(text: str | None, renderer: str) -> dict[str, float]:
-    """'{"red": 200}', a path to such a JSON file, or 'preset:Classic Red' -> {name: value}."""
+    """'{"red": 200}', a path to such a JSON file, 'preset:Classic Red' or 'preset:Red@out/presets.json' -> values.
+
+    preset:NAME@FILE reads NAME from a presets file of the shipped format (e.g. `vto batch`'s presets.json).
+    """
     if not text:
         return {}
     if text.startswith("preset:"):
-        name = text[len("preset:"):]
-        presets = load_presets(renderer)
+        name, at, path = text[len("preset:"):].rpartition("@")
+        if not at:
+            name, path = path, None
+        presets = load_presets(renderer, path)
         if name not in presets:
-            raise VtoError(f"no {renderer} preset '{name}'; see `vto presets {renderer}`")
+            where = f" in {path}" if path else f"; see `vto presets {renderer}`"
+            raise VtoError(f"no {renderer} preset '{name}'{where}")
         return presets[name]
     if text.lstrip().startswith("{"):
         source, raw = "--params", text

@@ -1,0 +1,98 @@
+"""A .blend asset library of lipstick products: one marked material per product, with catalog, tags and preview.
+
+Each material is the default lips' material (a Principled "Bare Lips" shader under the VTO Lipstick group) with the
+product's values written on the group's inputs, so dragging it from Blender's Asset Browser onto lips gives the look.
+The file holds only those materials and the node groups they use (`bpy.data.libraries.write`); it is written to a
+temporary name and moved into place, and `blender_assets.cats.txt` beside it names the catalog. Hair has no
+material form (it is a two-pass compositor stage fitted to each photo's own hair), so no library is made for it.
+"""
+
+from __future__ import annotations
+
+import os
+import uuid
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from vto_core.dataset import _write_atomic
+from vto_core.specs import get_spec
+
+from .nodes_lipstick import GROUP_NAME, lipstick_group
+
+CATALOG_FILE = "blender_assets.cats.txt"
+CATALOG_PATH = "Match from photo/Lipstick"
+HAIR_SKIPPED = ("hair is a two-pass compositor stage fitted to each photo's own hair, not a material: its products "
+                "are in the presets (vto render hair --params preset:NAME@presets.json)")
+
+
+def catalog_id(path: str = CATALOG_PATH) -> str:
+    """A stable catalog UUID for `path` (the same on every run, so reruns keep the Asset Browser's catalog)."""
+    return str(uuid.uuid5(uuid.NAMESPACE_URL, f"vto-match/{path}"))
+
+
+def write_catalogs(folder: Path, path: str = CATALOG_PATH) -> str:
+    """Write blender_assets.cats.txt (version 1, one catalog) into `folder`; returns the catalog's UUID."""
+    cid = catalog_id(path)
+    _write_atomic(folder / CATALOG_FILE, "# Asset catalogs of `vto batch` (Blender's format).\n\nVERSION 1\n\n"
+                                         f"{cid}:{path}:{path.replace('/', '-')}\n")
+    return cid
+
+
+def product_material(name: str, values: dict[str, float]) -> bpy.types.Material:
+    """A material 'Bare Lips' shader -> VTO Lipstick group (the product's values) -> Material Output."""
+    spec = get_spec("lipstick")
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    nodes.clear()
+    bare = nodes.new("ShaderNodeBsdfPrincipled")
+    bare.name = "Bare Lips"
+    bare.inputs["Roughness"].default_value = 0.45
+    makeup = nodes.new("ShaderNodeGroup")
+    makeup.name = makeup.label = GROUP_NAME
+    makeup.node_tree = lipstick_group()
+    for key, value in spec.check_values(values).items():
+        makeup.inputs[spec.by_name[key].socket].default_value = value
+    output = nodes.new("ShaderNodeOutputMaterial")
+    links.new(bare.outputs[0], makeup.inputs["Lips"])
+    links.new(makeup.outputs[0], output.inputs["Surface"])
+    bare.location, makeup.location, output.location = (-300, 0), (0, 0), (250, 0)
+    return material
+
+
+def set_preview(material: bpy.types.Material, image: np.ndarray) -> None:
+    """Store a display-sRGB image (H, W, 3) as the material's asset preview (Blender's rows run bottom-up)."""
+    height, width = image.shape[:2]
+    rgba = np.ones((height, width, 4), dtype=np.float32)
+    rgba[..., :3] = np.clip(image, 0.0, 1.0)
+    preview = material.preview_ensure()
+    preview.image_size = (width, height)
+    preview.image_pixels_float.foreach_set(rgba[::-1].ravel())
+
+
+def write_library(path: Path, products: dict[str, tuple[dict[str, float], np.ndarray, list[str]]],
+                  description: str = "") -> dict[str, str]:
+    """Write the asset library at `path`: product -> (values, preview, extra tags); returns product -> material name.
+
+    The materials live in bpy.data only while the file is written; they are removed afterwards.
+    """
+    cid = write_catalogs(path.parent)
+    materials = {}
+    try:
+        for name, (values, preview, tags) in products.items():
+            material = materials[name] = product_material(name, values)
+            material.asset_mark()
+            material.asset_data.catalog_id = cid
+            material.asset_data.description = description
+            for tag in ("lipstick", name, *tags):
+                material.asset_data.tags.new(tag[:63], skip_if_exists=True)
+            set_preview(material, preview)
+        temporary = path.with_name(f".tmp-{os.getpid()}-{path.name}")
+        bpy.data.libraries.write(str(temporary), set(materials.values()), fake_user=True, compress=True)
+        os.replace(temporary, path)
+        return {name: material.name for name, material in materials.items()}
+    finally:
+        for material in materials.values():
+            bpy.data.materials.remove(material)

@@ -1,0 +1,59 @@
+"""The budgets of `vto demo --size smoke|small|full`: data, networks, steps and evaluation per size.
+
+Measured on this project's 2-core CPU machine, otherwise idle (every report has its stage timings): `full` 16.3 min
+(encoder +1.4 dB transfer PSNR over the mean preset, 24 looks), `small` 3.9 min (+1.4 dB, 16 looks), `smoke` (CI)
+1.3 min (+2.5 dB, 12 looks, 4 parameters). The encoder's rendering loss is weighted 1, not 20: through these small
+imitators it is ~0.2 against a graphics loss of ~0.6, so at 20 it would drown the graphics term.
+
+Two datasets at the same size and settings: a small one with sensitivity renders for the
+imitator ((m + 2) renders a look), a larger one without for the encoder (2 renders a look), so the encoder sees
+several times more looks for the same render time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+# Smoke runs model fewer parameters, the ones a tiny encoder learns in a minute (colour, and what dims or lifts it).
+SMOKE_PARAMS = {"lipstick": "opacity,red,green,blue", "hair": "brightness,hue,saturation,intensity"}
+# Settings both trainings share: SSIM+L1 stands in for VGG (CPU time), cosine lr (benchmarks/results/training.md).
+COMMON = ["perceptual=ssim_l1", "batch_size=16", "schedule=cosine", "val_fraction=0.1", "log_every=10",
+          "checkpoint_every=100"]
+
+
+@dataclass(frozen=True)
+class DemoSize:
+    """One budget: dataset sizes and render settings, training overrides (`--set` form), evaluation."""
+
+    res: int
+    samples: int  # Cycles spp of every render (datasets and evaluation)
+    n_imitator: int  # looks with sensitivity renders (imitator data)
+    n_encoder: int  # looks without (encoder data)
+    imitator: tuple[str, ...]
+    encoder: tuple[str, ...]
+    eval_n: int
+    refine: tuple[str, ...]
+    smoke_params: bool = False  # model SMOKE_PARAMS instead of the renderer's default spec
+
+    def params(self, renderer: str) -> str | None:
+        """The --params of the datasets: None for the default spec."""
+        return SMOKE_PARAMS[renderer] if self.smoke_params else None
+
+
+SIZES = {
+    "smoke": DemoSize(
+        res=32, samples=4, n_imitator=40, n_encoder=300,
+        imitator=("width=8", "n_down=1", "n_res=1", "critic_width=8", "critic_layers=2", "steps=60", "lr=0.001"),
+        encoder=("width=16", "n_layers=3", "steps=300", "lr=0.002", "warmup_steps=20", "lambda_rendering=1"),
+        eval_n=12, refine=("imitator:5",), smoke_params=True),
+    "small": DemoSize(
+        res=32, samples=8, n_imitator=100, n_encoder=800,
+        imitator=("width=8", "n_down=1", "n_res=2", "critic_width=16", "critic_layers=3", "steps=150", "lr=0.001"),
+        encoder=("width=32", "steps=800", "lr=0.001", "warmup_steps=50", "augment=true", "lambda_rendering=1"),
+        eval_n=16, refine=("imitator:10", "render:8")),
+    "full": DemoSize(
+        res=64, samples=8, n_imitator=150, n_encoder=1500,
+        imitator=("width=8", "n_down=2", "n_res=2", "critic_width=16", "critic_layers=3", "steps=200", "lr=0.001"),
+        encoder=("width=32", "steps=1500", "lr=0.001", "warmup_steps=50", "augment=true", "lambda_rendering=1"),
+        eval_n=24, refine=("imitator:10", "render:8")),
+}
