@@ -9,30 +9,11 @@ the mean preset. Writes speed_accuracy.md (table, machine) and speed_accuracy.pn
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import tempfile
 import time
 from pathlib import Path
 
-from benchmarks.common import RESULTS
-
-
-def machine() -> str:
-    """CPU model, cores, Python, Blender and torch versions, in one line."""
-    cpu = platform.processor() or platform.machine()
-    try:
-        cpu = next(line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
-                   if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    import bpy
-    import torch
-
-    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else "?"
-    return (f"{cpu}, {os.cpu_count()} cores ({usable} usable), {platform.system()}; Python "
-            f"{platform.python_version()}, Blender {bpy.app.version_string} (Cycles on the CPU), torch "
-            f"{torch.__version__} ({torch.get_num_threads()} threads)")
+from benchmarks.common import RESULTS, machine
 
 
 def pareto(points: list[tuple[float, float, str]]) -> list[tuple[float, float, str]]:

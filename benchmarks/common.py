@@ -24,8 +24,7 @@ def best_time(fn, repeats: int = 3) -> float:
 
 def write_table(name: str, title: str, header: list[str], rows: list[list], notes: str = "") -> Path:
     """Write a markdown table to benchmarks/results/NAME.md and print it."""
-    lines = [f"# {title}", "", f"Machine: {platform.processor() or platform.machine()}, {platform.python_version()}; "
-             f"written {time.strftime('%Y-%m-%d %H:%M')}.", ""]
+    lines = [f"# {title}", "", f"Machine: {machine()}; written {time.strftime('%Y-%m-%d %H:%M')}.", ""]
     lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
     if notes:
@@ -39,12 +38,21 @@ def write_table(name: str, title: str, header: list[str], rows: list[list], note
 
 
 def machine() -> str:
-    """One line about this machine: processor, cores, Python (and torch's threads where torch is loaded)."""
+    """One line about this machine: CPU model, cores, Python, and Blender's and torch's versions where they are loaded."""
     import sys
 
-    torch = sys.modules.get("torch")
-    threads = f", {torch.get_num_threads()} torch threads" if torch is not None else ""
-    return f"{platform.machine()}, {os.cpu_count()} cores{threads}, Python {platform.python_version()}"
+    cpu = platform.processor() or platform.machine()
+    try:
+        cpu = next(line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                   if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    text = f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}"
+    if (bpy := sys.modules.get("bpy")) is not None:
+        text += f", Blender {bpy.app.version_string} (Cycles on the CPU)"
+    if (torch := sys.modules.get("torch")) is not None:
+        text += f", torch {torch.__version__} ({torch.get_num_threads()} threads)"
+    return text
 
 
 def table(header: list[str], rows: list[list]) -> str:

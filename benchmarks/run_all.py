@@ -1,6 +1,6 @@
 """Run every benchmark in turn (`make bench`)."""
 
-from benchmarks import bench_batch, bench_dataset, bench_hair_match, bench_render, bench_training
+from benchmarks import bench_batch, bench_dataset, bench_hair_match, bench_match, bench_render, bench_training
 
 
 def main() -> None:
@@ -10,6 +10,7 @@ def main() -> None:
     bench_dataset.main()
     bench_training.main()
     bench_batch.main([])
+    bench_match.main([])
 
 
 if __name__ == "__main__":

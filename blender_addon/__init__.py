@@ -1,35 +1,57 @@
 """Match from photo (Kips et al. 2022) for Blender: registration only; the work lives in the modules."""
 
-import os
-import sys
+# Installed as an extension, vto_core and onnxruntime come as wheels listed in blender_manifest.toml (Blender installs
+# them into its extensions' site-packages); a pip install of the repository has them already. No sys.path edits here.
 
 _cli_handle = None
 
 
-def _make_core_importable() -> None:
-    """Installed as an extension, vto_core ships inside the add-on (folder _vendor); the console install has it already."""
-    vendored = os.path.join(os.path.dirname(__file__), "_vendor")
-    if os.path.isdir(vendored) and vendored not in sys.path:
-        sys.path.insert(0, vendored)
-    # vto_core's dispatcher names commands as blender_addon.<module>, whatever the extension's package is called.
-    sys.modules.setdefault("blender_addon", sys.modules[__name__])
-
-
 def run_cli(argv) -> int:
-    """`blender -b [file.blend] -c vto COMMAND ...`: the same dispatcher as the `vto` console script."""
+    """`blender -b [file.blend] -c vto COMMAND ...`: the same dispatcher as the `vto` console script.
+
+    The add-on's command modules are looked up in this package: "blender_addon" when pip-installed,
+    e.g. "bl_ext.user_default.vto_match" when installed as an extension.
+    """
     from vto_core.cli import run
 
-    return run(list(argv))
+    return run(list(argv), addon_package=__package__)
 
 
 def register() -> None:
-    """Register the `vto` command-line command."""
+    """Register the `vto` command-line command and the Match-from-photo panels, operators and preferences."""
     import bpy
 
     global _cli_handle
-    _make_core_importable()
     if _cli_handle is None:
         _cli_handle = bpy.utils.register_cli_command("vto", run_cli)
+    _register_ui()
+
+
+def _ui_modules():
+    """The modules holding the panel, operators, preferences and their properties, in registration order."""
+    from . import operators, panels, preferences, properties
+
+    return [properties, preferences, operators, panels]
+
+
+_ui_registered = False
+
+
+def _register_ui() -> None:
+    """Register the Match-from-photo classes (once)."""
+    global _ui_registered
+    if not _ui_registered:
+        for module in _ui_modules():
+            module.register()
+        _ui_registered = True
+
+
+def _unregister_ui() -> None:
+    global _ui_registered
+    if _ui_registered:
+        for module in reversed(_ui_modules()):
+            module.unregister()
+        _ui_registered = False
 
 
 def unregister() -> None:
@@ -37,6 +59,7 @@ def unregister() -> None:
     import bpy
 
     global _cli_handle
+    _unregister_ui()
     if _cli_handle is not None:
         bpy.utils.unregister_cli_command(_cli_handle)
         _cli_handle = None

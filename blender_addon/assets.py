@@ -16,10 +16,9 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from vto_core.dataset import _write_atomic
-from vto_core.specs import get_spec
+from vto_core.dataset import write_text_atomic
 
-from .nodes_lipstick import GROUP_NAME, lipstick_group
+from .nodes_lipstick import lipstick_material
 
 CATALOG_FILE = "blender_assets.cats.txt"
 CATALOG_PATH = "Match from photo/Lipstick"
@@ -35,31 +34,9 @@ def catalog_id(path: str = CATALOG_PATH) -> str:
 def write_catalogs(folder: Path, path: str = CATALOG_PATH) -> str:
     """Write blender_assets.cats.txt (version 1, one catalog) into `folder`; returns the catalog's UUID."""
     cid = catalog_id(path)
-    _write_atomic(folder / CATALOG_FILE, "# Asset catalogs of `vto batch` (Blender's format).\n\nVERSION 1\n\n"
+    write_text_atomic(folder / CATALOG_FILE, "# Asset catalogs of `vto batch` (Blender's format).\n\nVERSION 1\n\n"
                                          f"{cid}:{path}:{path.replace('/', '-')}\n")
     return cid
-
-
-def product_material(name: str, values: dict[str, float]) -> bpy.types.Material:
-    """A material 'Bare Lips' shader -> VTO Lipstick group (the product's values) -> Material Output."""
-    spec = get_spec("lipstick")
-    material = bpy.data.materials.new(name)
-    material.use_nodes = True
-    nodes, links = material.node_tree.nodes, material.node_tree.links
-    nodes.clear()
-    bare = nodes.new("ShaderNodeBsdfPrincipled")
-    bare.name = "Bare Lips"
-    bare.inputs["Roughness"].default_value = 0.45
-    makeup = nodes.new("ShaderNodeGroup")
-    makeup.name = makeup.label = GROUP_NAME
-    makeup.node_tree = lipstick_group()
-    for key, value in spec.check_values(values).items():
-        makeup.inputs[spec.by_name[key].socket].default_value = value
-    output = nodes.new("ShaderNodeOutputMaterial")
-    links.new(bare.outputs[0], makeup.inputs["Lips"])
-    links.new(makeup.outputs[0], output.inputs["Surface"])
-    bare.location, makeup.location, output.location = (-300, 0), (0, 0), (250, 0)
-    return material
 
 
 def set_preview(material: bpy.types.Material, image: np.ndarray) -> None:
@@ -82,7 +59,7 @@ def write_library(path: Path, products: dict[str, tuple[dict[str, float], np.nda
     materials = {}
     try:
         for name, (values, preview, tags) in products.items():
-            material = materials[name] = product_material(name, values)
+            material = materials[name] = lipstick_material(name, values)
             material.asset_mark()
             material.asset_data.catalog_id = cid
             material.asset_data.description = description

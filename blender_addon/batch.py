@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from vto_core.cli import ArgumentParser
-from vto_core.dataset import DEFAULT_SAMPLES, _write_atomic
+from vto_core.dataset import DEFAULT_SAMPLES, write_text_atomic
 from vto_core.errors import VtoError
 from vto_core.imageio import write_image
 from vto_core.inference import EncoderSession
@@ -151,7 +151,7 @@ def estimate_images(session: EncoderSession, images: list[Path], out: Path, fing
                     estimates[image.name] = values
                     record = {"key": _cache_key(image, fingerprint), "renderer": session.spec.renderer,
                               "params": values}
-                    _write_atomic(out / ESTIMATES / f"{image.name}.json", json.dumps(record, indent=1) + "\n")
+                    write_text_atomic(out / ESTIMATES / f"{image.name}.json", json.dumps(record, indent=1) + "\n")
             bar.update(len(todo[start:start + CHUNK]))
     return estimates, skipped, len(images) - len(todo)
 
@@ -159,13 +159,13 @@ def estimate_images(session: EncoderSession, images: list[Path], out: Path, fing
 def write_presets(out: Path, renderer: str, presets: dict[str, dict[str, float]]) -> list[str]:
     """presets.json (the shipped presets' format) and presets.csv (name, then one column per parameter)."""
     rows = [{"name": name, "params": values} for name, values in presets.items()]
-    _write_atomic(out / "presets.json", json.dumps({"renderer": renderer, "presets": rows}, indent=1) + "\n")
+    write_text_atomic(out / "presets.json", json.dumps({"renderer": renderer, "presets": rows}, indent=1) + "\n")
     names = list(next(iter(presets.values())))
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
     writer.writerow(["name", *names])
     writer.writerows([name, *(repr(values[key]) for key in names)] for name, values in presets.items())
-    _write_atomic(out / "presets.csv", text.getvalue())
+    write_text_atomic(out / "presets.csv", text.getvalue())
     return [str(out / "presets.json"), str(out / "presets.csv")]
 
 
@@ -240,7 +240,7 @@ def cmd_batch(argv: list[str]) -> int:
               "cached": cached, "images_per_s": round((len(estimates) - cached) / seconds, 2) if seconds else None,
               "skipped": skipped, "products": {name: [p.name for p in paths] for name, paths in products.items()}}
     if not products:
-        _write_atomic(out / "report.json", json.dumps(report, indent=1) + "\n")
+        write_text_atomic(out / "report.json", json.dumps(report, indent=1) + "\n")
         raise VtoError(f"no photo in {args.images} could be estimated and given a product; see {out / 'report.json'}")
     presets = {name: median_values(spec, [estimates[p.name] for p in paths]) for name, paths in products.items()}
     report["presets"] = write_presets(out, spec.renderer, presets)
@@ -259,7 +259,7 @@ def cmd_batch(argv: list[str]) -> int:
 
         report["asset_library"] = None
         report["asset_library_skipped"] = HAIR_SKIPPED
-    _write_atomic(out / "report.json", json.dumps(report, indent=1) + "\n")
+    write_text_atomic(out / "report.json", json.dumps(report, indent=1) + "\n")
     print(json.dumps({"out": str(out), "products": len(presets), "estimated": len(estimates), "cached": cached,
                       "skipped": len(skipped), "images_per_s": report["images_per_s"]}))
     return 0

@@ -14,7 +14,7 @@ from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.hair import blur_radius, fit_hair_match, hair_gradient
 from vto_core.imageio import read_image, resize
-from vto_core.specs import get_spec
+from vto_core.specs import RendererSpec, get_spec
 
 from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, set_blur_radius, set_lut, swatch_group
 from .render import configure_cycles, render_passes, to_display
@@ -42,6 +42,18 @@ def render_hair_source(source_seed: int, res: int = 64, samples: int = DEFAULT_S
     passes = render_passes(scene)
     mask = (np.abs(passes["IndexOB"][..., 0] - HAIR_PASS_INDEX) < 0.5).astype(np.float32)
     return HairSource(to_display(passes["Combined"][..., :3]), mask)
+
+
+# A photo refined as its own source: the stage recolours the photo's hair towards the swatch, so with intensity 0 or
+# the fade moved below the hair (blend 1) it returns the photo untouched, a perfect and useless match. Render search
+# then holds these at full effect and fits the swatch (colour and shine) alone; the encoder's values stand for them.
+OWN_SOURCE_HELD = {"intensity": 1.0, "blend": -1.0}
+
+
+def own_source_held(spec: RendererSpec, start: dict[str, float]) -> dict[int, float]:
+    """{position in spec.modelled: unit value} of OWN_SOURCE_HELD, for iter_refine_by_render's `held`."""
+    unit = spec.normalise(spec.vector({**start, **OWN_SOURCE_HELD}))
+    return {i: float(unit[i]) for i, name in enumerate(spec.modelled) if name in OWN_SOURCE_HELD}
 
 
 def mask_path_for(photo: Path) -> Path:

@@ -16,6 +16,7 @@ import json
 import os
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -89,12 +90,20 @@ def photo_source(image_path: Path) -> str | None:
 
 
 def load_reference(image_path: str) -> np.ndarray:
-    """The reference image (H, W, 3), NaN-free and clipped to [0, 1]; one-line errors for what cannot serve."""
+    """The reference image (H, W, 3), NaN-free and clipped to [0, 1]; one-line errors for what cannot serve.
+
+    A few NaN or infinite pixels (an EXR from a bad render) are read as 0 or 1 with a warning; all of them is an error.
+    """
     if not os.path.isfile(image_path):
         raise VtoError(f"no image at {image_path}")
     reference, _ = read_image(image_path)
     if reference.shape[0] < 8 or reference.shape[1] < 8:
         raise VtoError(f"{image_path}: image is {reference.shape[1]}x{reference.shape[0]}; at least 8x8 is needed")
+    bad = int((~np.isfinite(reference)).any(axis=-1).sum())
+    if bad == reference.shape[0] * reference.shape[1]:
+        raise VtoError(f"{image_path}: every pixel is NaN or infinite; nothing to estimate from")
+    if bad:
+        warnings.warn(f"{image_path}: {bad} NaN or infinite pixel(s) read as 0 (NaN, -inf) or 1 (+inf)", stacklevel=2)
     return np.clip(np.nan_to_num(reference, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
 
 
@@ -168,9 +177,14 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
                                "--res R to compare at R x R")
             res = reference.shape[0]
         on_source = SourceRenderer(spec.renderer, source, res, samples, seed)
+        held = None
+        if on_source.hair is not None and Path(str(source)).resolve() == Path(image_path).resolve():
+            from .hair import own_source_held
+
+            held = own_source_held(spec, spec.values(spec.denormalise(start_unit)))
         refined = refine_by_render(lambda u: on_source(spec.values(spec.denormalise(u))), at_size(reference, res, res),
                                    start_unit, amount, seed, wraps, objective,
-                                   SIGMA_FROM_MEAN if start_at == "mean" else SIGMA)
+                                   SIGMA_FROM_MEAN if start_at == "mean" else SIGMA, held)
         result["renders"] = refined.renders
     else:
         refiner = imitator_refiner(spec, imitator)
@@ -183,12 +197,16 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
 
 
 def cmd_match(argv: list[str]) -> int:
-    """vto match --model M --image IMG [--source S] [--refine none|imitator:K|render:B] [--imitator RUN] --out-params F.
+    """vto match --model M --image IMG [--source S] [--refine none|imitator:K|render:B] [--imitator RUN] --out-params F,
+    or vto match --material NAME --image IMG [--model M] [--crop x,y,w,h] [--mask IMG] [--blend FILE] --save.
 
-    The same function serves `blender -b -c vto match`; there imitator:K ends in one line (no torch).
+    The same function serves `blender -b [FILE] -c vto match`; there imitator:K ends in one line (no torch).
+    With --material the estimate goes into that material's "VTO Lipstick" group inputs (blender_addon.apply, the
+    operator's code) and --save writes the .blend atomically; on any error the file is left as it was.
     """
     parser = ArgumentParser(prog="vto match", description="estimate a renderer's parameters from a reference image")
-    parser.add_argument("--model", required=True, help="an encoder exported with `vto export`")
+    parser.add_argument("--model", default=None, help="an encoder exported with `vto export` (with --material: "
+                                                      "default the shipped lipstick encoder)")
     parser.add_argument("--image", required=True, help="the reference image")
     parser.add_argument("--source", default=None, help="the reference's source: a default-scene seed, or a hair "
                                                       "photo with a mask (default: the image itself, for hair)")
@@ -201,11 +219,28 @@ def cmd_match(argv: list[str]) -> int:
     parser.add_argument("--objective", default="mse", choices=sorted(OBJECTIVES), help="render search: mse or 1-SSIM")
     parser.add_argument("--start", default="encoder", choices=["encoder", "mean"],
                         help="refinement starts at the encoder's estimate or at the mean preset")
-    parser.add_argument("--out-params", required=True, help="JSON file for the estimate (takes `vto render --params`)")
+    parser.add_argument("--out-params", default=None, help="JSON file for the estimate (takes `vto render --params`)")
+    parser.add_argument("--material", default=None, help="write the estimate into this material's VTO Lipstick group "
+                                                         "inputs (of --blend FILE, or the open .blend)")
+    parser.add_argument("--blend", default=None, help="with --material: the .blend to open (default: the open one)")
+    parser.add_argument("--save", action="store_true", help="with --material: save the .blend (atomically)")
+    parser.add_argument("--crop", default=None, help="with --material: x,y,w,h of the reference to use, from the "
+                                                     "top-left, in pixels or fractions")
+    parser.add_argument("--mask", default=None, help="with --material: a mask image; the reference is cropped to it")
     args = parser.parse_args(argv)
-    out = Path(args.out_params)
-    if not out.resolve().parent.is_dir():
+    if args.material is None:
+        for option in ("blend", "save", "crop", "mask"):
+            if getattr(args, option):
+                raise VtoError(f"--{option} goes with --material NAME")
+        if args.out_params is None or args.model is None:
+            raise VtoError("give --model M and --out-params FILE, or --material NAME --save")
+    elif not args.save:
+        raise VtoError("--material writes into the .blend: add --save (nothing is kept otherwise)")
+    out = Path(args.out_params) if args.out_params else None
+    if out is not None and not out.resolve().parent.is_dir():
         raise VtoError(f"--out-params: no folder {out.parent}")
+    if args.material is not None:
+        return match_material_cli(args, out)
     if args.res is not None and not 8 <= args.res <= 4096 or not 1 <= args.samples <= 65536:
         raise VtoError(f"--res must be in [8, 4096] and --samples in [1, 65536], got {args.res} and {args.samples}")
     result = match(args.model, args.image, args.source, args.refine, args.imitator, args.res, args.samples, args.seed,
@@ -216,4 +251,46 @@ def cmd_match(argv: list[str]) -> int:
     temporary.write_text(json.dumps({"renderer": result["renderer"], "params": result["params"]}, indent=1) + "\n")
     temporary.replace(out)
     print(json.dumps({"out": str(out), **result}))
+    return 0
+
+
+def parse_crop(text: str | None) -> tuple[float, ...] | None:
+    """'x,y,w,h' -> four floats (checked against the image later), or None."""
+    if text is None:
+        return None
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 4:
+        raise VtoError(f"--crop takes x,y,w,h (four numbers, pixels or fractions), got '{text}'")
+    return values
+
+
+def match_material_cli(args, out: Path | None) -> int:
+    """`vto match --material NAME --save`: the operator's code (blender_addon.apply), then an atomic save."""
+    if args.refine != "none":
+        from .apply import NO_LIPSTICK_SOURCE
+
+        raise VtoError(f"--material takes the encoder's estimate only (--refine none): {NO_LIPSTICK_SOURCE}")
+    crop = parse_crop(args.crop)
+    import bpy
+
+    from .apply import match_into_material, save_blend_atomic
+    from .scene_params import open_blend
+
+    open_blend(args.blend)
+    blend = bpy.data.filepath
+    settings = {"image_path": os.path.abspath(args.image), "model_path": os.path.abspath(args.model) if args.model
+                else "", "crop": crop, "mask_path": os.path.abspath(args.mask) if args.mask else "", "quality": "FAST"}
+    result = match_into_material(args.material, settings)
+    for warning in result["warnings"]:
+        print(f"vto match: warning: {warning}", file=sys.stderr)
+    save_blend_atomic(blend)
+    if out is not None:
+        temporary = out.with_name(out.name + ".tmp")
+        temporary.write_text(json.dumps({"renderer": "lipstick", "params": result["values"]}, indent=1) + "\n")
+        temporary.replace(out)
+    print(json.dumps({"blend": blend, "material": args.material, "model": result["model"],
+                      "params": result["values"], "seconds": round(result["seconds"], 4)}))
     return 0

@@ -37,14 +37,32 @@ def into_box(unit: np.ndarray, wraps: np.ndarray) -> np.ndarray:
 
 
 def refine_by_render(render_unit: Callable[[np.ndarray], np.ndarray], reference: np.ndarray, start: np.ndarray,
-                     budget: int, seed: int = 0, wraps=None, objective: str = "mse", sigma: float = SIGMA) -> Refined:
+                     budget: int, seed: int = 0, wraps=None, objective: str = "mse", sigma: float = SIGMA,
+                     held: dict[int, float] | None = None) -> Refined:
+    """Render search to the end: see iter_refine_by_render."""
+    steps = iter_refine_by_render(render_unit, reference, start, budget, seed, wraps, objective, sigma, held)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
+
+
+def iter_refine_by_render(render_unit: Callable[[np.ndarray], np.ndarray], reference: np.ndarray, start: np.ndarray,
+                          budget: int, seed: int = 0, wraps=None, objective: str = "mse", sigma: float = SIGMA,
+                          held: dict[int, float] | None = None):
     """Minimise objective(render_unit(u), reference) over u in [0, 1]^m from `start`, with at most `budget` renders.
 
     render_unit: (m,) unit vector -> (H, W, 3) image like `reference`; wraps: (m,) bool, dimensions that wrap (hue).
+    held: {dimension: unit value} rendered at that value and left out of the search; the result keeps the start's
+    values there (see blender_addon.hair.OWN_SOURCE_HELD for why).
     The start is rendered first and kept unless something renders closer, so the result is never worse than the
     start on this objective. Whole CMA-ES generations are told back; what is left of the budget at the end is spent
     on part of one more generation (evaluated, kept if better, not told), so exactly `budget` renders are made
     unless the search converges first.
+
+    A generator: it yields the renders made so far after each render (so a modal operator can run it a few renders
+    per timer tick, and show progress) and returns the Refined result (StopIteration.value).
     """
     import cma
 
@@ -56,8 +74,26 @@ def refine_by_render(render_unit: Callable[[np.ndarray], np.ndarray], reference:
     start = np.asarray(start, np.float64)
     wraps = np.zeros(start.shape, bool) if wraps is None else np.asarray(wraps, bool)
     start = into_box(start, wraps)
+    if held:
+        free = np.array([i not in held for i in range(start.size)])
+        if not free.any():
+            raise VtoError("render search has no free parameter: every one is held")
+        pinned = start.copy()
+        pinned[list(held)] = list(held.values())
+
+        def render_free(unit_free: np.ndarray) -> np.ndarray:
+            unit = pinned.copy()
+            unit[free] = unit_free
+            return render_unit(unit)
+
+        found = yield from iter_refine_by_render(render_free, reference, start[free], budget, seed, wraps[free],
+                                                 objective, sigma)
+        unit = start.copy()
+        unit[free] = found.unit
+        return Refined(unit, found.loss, found.start_loss, found.renders)
     best_unit, best_loss = start, distance(render_unit(start), reference)
     start_loss, renders = best_loss, 1
+    yield renders
     if budget == 1:
         return Refined(best_unit, float(best_loss), float(start_loss), renders)
     strategy = cma.CMAEvolutionStrategy(start.tolist(), sigma, {
@@ -68,7 +104,10 @@ def refine_by_render(render_unit: Callable[[np.ndarray], np.ndarray], reference:
         asked = strategy.ask()
         left = budget - renders
         candidates = [into_box(x, wraps) for x in asked[:left]]
-        losses = [distance(render_unit(x), reference) for x in candidates]
+        losses = []
+        for candidate in candidates:
+            losses.append(distance(render_unit(candidate), reference))
+            yield renders + len(losses)
         renders += len(candidates)
         if len(candidates) == len(asked):
             strategy.tell(asked, losses)

@@ -13,14 +13,13 @@ import numpy as np
 from vto_core.colour import srgb_to_linear
 
 from .lighting import build_hdri_world, randomise_hdri
-from .nodes_lipstick import lipstick_group
+from .nodes_lipstick import lipstick_material
 
 SCENE_NAME = "VTO Lips"
 LIPS_OBJECT = "VTO Lips"
 SKIN_OBJECT = "VTO Skin"
 LIPS_MATERIAL = "VTO Lips Material"
 SKIN_MATERIAL = "VTO Skin Material"
-MAKEUP_NODE = "VTO Lipstick"
 LIPS_PASS_INDEX = 1  # the lips' object index: the IndexOB pass of a render is the lips mask
 
 LIP_COLUMNS, LIP_ROWS = 48, 12  # per lip: across the mouth, outer contour -> mouth line
@@ -102,24 +101,6 @@ def _mesh_object(scene, name: str, vertices: np.ndarray, faces, material) -> bpy
     return obj
 
 
-def _lips_material() -> bpy.types.Material:
-    material = bpy.data.materials.new(LIPS_MATERIAL)
-    material.use_nodes = True
-    nodes, links = material.node_tree.nodes, material.node_tree.links
-    nodes.clear()
-    bare = nodes.new("ShaderNodeBsdfPrincipled")
-    bare.name = "Bare Lips"
-    bare.inputs["Roughness"].default_value = 0.45
-    makeup = nodes.new("ShaderNodeGroup")
-    makeup.name = makeup.label = MAKEUP_NODE
-    makeup.node_tree = lipstick_group()
-    output = nodes.new("ShaderNodeOutputMaterial")
-    links.new(bare.outputs[0], makeup.inputs["Lips"])
-    links.new(makeup.outputs[0], output.inputs["Surface"])
-    bare.location, makeup.location, output.location = (-300, 0), (0, 0), (250, 0)
-    return material
-
-
 def _skin_material() -> bpy.types.Material:
     material = bpy.data.materials.new(SKIN_MATERIAL)
     material.use_nodes = True
@@ -146,7 +127,7 @@ def build_lips_scene() -> bpy.types.Scene:
     shape = lip_shape(np.random.default_rng(0))
     lips = _mesh_object(scene, LIPS_OBJECT, lip_vertices(shape),
                         _grid_faces(LIP_COLUMNS, LIP_ROWS) + _grid_faces(LIP_COLUMNS, LIP_ROWS, (LIP_COLUMNS + 1) * (LIP_ROWS + 1)),
-                        _lips_material())
+                        lipstick_material(LIPS_MATERIAL))
     lips.pass_index = LIPS_PASS_INDEX
     u = np.linspace(0, 1, LIP_COLUMNS + 1)
     v = np.linspace(0, 1, LIP_ROWS + 1)

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import torch
 
+from vto_core.dataset import write_text_atomic
 from vto_core.errors import VtoError
 
 from .distributed import Processes
@@ -39,7 +40,7 @@ class RunFolder:
             changed = sorted(k for k in set(saved) | set(config) if k != "steps" and saved.get(k) != config.get(k))
             if changed:
                 raise VtoError(f"{self.path} was trained with other settings ({', '.join(changed)}); use a new --out")
-        _atomic_write_text(path, json.dumps(config, indent=1, sort_keys=True) + "\n")
+        write_text_atomic(path, json.dumps(config, indent=1, sort_keys=True) + "\n")
 
     def save_checkpoint(self, state: dict) -> None:
         """Atomically write checkpoint.pt."""
@@ -69,7 +70,7 @@ class RunFolder:
         path = self.path / LOSSES
         if path.exists():
             kept = [line for line in path.read_text().splitlines() if line and json.loads(line)["step"] <= step]
-            _atomic_write_text(path, "".join(line + "\n" for line in kept))
+            write_text_atomic(path, "".join(line + "\n" for line in kept))
 
     def read_log(self) -> list[dict]:
         """All logged lines."""
@@ -114,11 +115,6 @@ def check_finite(step: int, losses: dict[str, torch.Tensor | float]) -> dict[str
                        "(lower lr, check the data); the last good checkpoint is kept")
     return values
 
-
-def _atomic_write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
 
 
 def learning_rate(config, step: int) -> float:

@@ -11,7 +11,9 @@ import warnings
 from .errors import VtoError
 
 # command -> (module, function, one-line help). Modules load lazily so `vto spec`
-# needs neither bpy nor torch.
+# needs neither bpy nor torch. Modules under ADDON_PACKAGE are the add-on's: run() looks them up in the
+# package its caller names (the extension's own package inside Blender, see blender_addon.run_cli).
+ADDON_PACKAGE = "blender_addon"
 COMMANDS = {
     "spec": ("vto_core.cli", "cmd_spec", "print a renderer's (selected) parameter spec as JSON"),
     "sample": ("vto_core.cli", "cmd_sample", "print sampled parameter vectors as JSON lines"),
@@ -96,8 +98,19 @@ def cmd_presets(argv: list[str]) -> int:
     return 0
 
 
-def run(argv: list[str]) -> int:
-    """Dispatch argv (without the program name) to a command; VtoError -> one line, exit 2."""
+def command_module(module: str, addon_package: str = ADDON_PACKAGE) -> str:
+    """COMMANDS' module name with the add-on's package replaced by `addon_package` (e.g. "bl_ext.user_default.vto_match")."""
+    if module == ADDON_PACKAGE or module.startswith(ADDON_PACKAGE + "."):
+        return addon_package + module[len(ADDON_PACKAGE):]
+    return module
+
+
+def run(argv: list[str], addon_package: str = ADDON_PACKAGE) -> int:
+    """Dispatch argv (without the program name) to a command; VtoError -> one line, exit 2.
+
+    addon_package: the package holding the add-on's command modules: "blender_addon" for the console script,
+    the extension's package name (its __package__) when Blender runs `blender -c vto`.
+    """
     if not argv or argv[0] in ("-h", "--help"):
         print("usage: vto COMMAND [args]\n\ncommands:")
         for name, (_, _, text) in COMMANDS.items():
@@ -110,7 +123,7 @@ def run(argv: list[str]) -> int:
     module, function, _ = COMMANDS[name]
     warnings.simplefilter("default")
     try:
-        return getattr(importlib.import_module(module), function)(rest) or 0
+        return getattr(importlib.import_module(command_module(module, addon_package)), function)(rest) or 0
     except VtoError as exc:
         print(f"vto {name}: error: {exc}", file=sys.stderr)
         return 2

@@ -84,7 +84,7 @@ def write_manifest(root: Path, manifest: dict) -> None:
             changed = sorted(k for k in set(existing) | set(manifest) if existing.get(k) != manifest.get(k))
             raise VtoError(f"{root} holds a dataset made with other settings ({', '.join(changed)}); use a new --out")
         return
-    _write_atomic(path, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    write_text_atomic(path, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
 
 
 def read_manifest(root: Path) -> dict:
@@ -98,7 +98,8 @@ def read_manifest(root: Path) -> dict:
         raise VtoError(f"{path} is corrupt: {exc}") from None
 
 
-def _write_atomic(path: Path, text: str) -> None:
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write `text` to a temporary file beside `path`, then move it into place: readers never see half a file."""
     tmp = path.with_name(f"{TMP_PREFIX}{os.getpid()}-{path.name}")
     tmp.write_text(text)
     os.replace(tmp, path)

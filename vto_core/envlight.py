@@ -39,6 +39,38 @@ def pixel_directions(height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
     return directions, solid_angle
 
 
+def label_spots(mask: np.ndarray) -> tuple[np.ndarray, int]:
+    """Connected spots of a 2-D boolean mask (4-connected), numbered 1.. in raster order of their first pixel.
+
+    The same labels as scipy.ndimage.label with its default structure, in numpy alone (Blender's Python has no
+    scipy): union-find over the mask's edges, hooking roots to the smaller index, with pointer jumping.
+    """
+    mask = np.asarray(mask, dtype=bool)
+    height, width = mask.shape
+    index = np.arange(height * width).reshape(height, width)
+    across = mask[:, :-1] & mask[:, 1:]
+    down = mask[:-1, :] & mask[1:, :]
+    a = np.concatenate([index[:, :-1][across], index[:-1, :][down]])
+    b = np.concatenate([index[:, 1:][across], index[1:, :][down]])
+    parent = index.ravel().copy()
+    while True:
+        root_a, root_b = parent[a], parent[b]
+        differ = root_a != root_b
+        if not differ.any():
+            break
+        np.minimum.at(parent, np.maximum(root_a, root_b)[differ], np.minimum(root_a, root_b)[differ])
+        while True:  # pointer jumping: every pixel points at its root
+            jumped = parent[parent]
+            if np.array_equal(jumped, parent):
+                break
+            parent = jumped
+    labels = np.zeros(height * width, dtype=np.int64)
+    bright = np.flatnonzero(mask.ravel())
+    roots, numbers = np.unique(parent[bright], return_inverse=True)
+    labels[bright] = numbers + 1
+    return labels.reshape(height, width), len(roots)
+
+
 def split_environment(rgb: np.ndarray, max_lights: int = 4, threshold: float = 3.0,
                       min_share: float = 0.01) -> tuple[np.ndarray, list[DistantLight], float]:
     """rgb (H, W, 3) linear radiance, bottom row first -> (residual (H, W, 3), distant lights, share dropped).
@@ -49,8 +81,6 @@ def split_environment(rgb: np.ndarray, max_lights: int = 4, threshold: float = 3
     did not become lights is dropped, and its share of the map's total is returned; otherwise light is
     conserved exactly (residual irradiance integral + lights = the map's).
     """
-    from scipy import ndimage
-
     rgb = np.asarray(rgb, dtype=np.float64)
     if rgb.ndim != 3 or rgb.shape[2] != 3 or min(rgb.shape[:2]) < 2:
         raise VtoError(f"environment map must be (H, W, 3), got {rgb.shape}")
@@ -64,11 +94,11 @@ def split_environment(rgb: np.ndarray, max_lights: int = 4, threshold: float = 3
         return rgb, [], 0.0
     level = threshold * total / (4 * np.pi)
     bright = luminance > level
-    labels, count = ndimage.label(bright)
+    labels, count = label_spots(bright)
     # Light above the level, per pixel: the part a spot gives up (its chromaticity kept).
     excess = np.where(bright, 1.0 - level / np.maximum(luminance, 1e-30), 0.0)[..., None] * rgb
     weight = excess @ LUMINANCE * solid_angle
-    energy = ndimage.sum(weight, labels, index=np.arange(1, count + 1))
+    energy = np.bincount(labels.ravel(), weights=weight.ravel(), minlength=count + 1)[1:]
     lights = []
     for index in np.argsort(energy)[::-1][:max_lights]:
         if energy[index] < min_share * total:

@@ -63,7 +63,7 @@ class EncoderSession:
         if image.ndim != 3 or image.shape[2] != 3:
             raise VtoError(f"expected an (H, W, 3) image, got shape {image.shape}")
         if tuple(image.shape[:2]) != self.input_size:
-            image = resize(image, *self.input_size)
+            image = resize(shrink(image, *self.input_size), *self.input_size)
         return np.clip(np.nan_to_num(image, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0).transpose(2, 0, 1)
 
     def predict(self, images: list[np.ndarray] | np.ndarray) -> list[dict[str, float]]:
@@ -72,3 +72,40 @@ class EncoderSession:
             images = [images]
         unit = self.predict_unit_nchw(np.stack([self.prepare(image) for image in images]))
         return [self.spec.values(self.spec.denormalise(np.clip(row, 0.0, 1.0))) for row in unit]
+
+
+def shrink(image: np.ndarray, height: int, width: int) -> np.ndarray:
+    """A very large (H, W, C) image reduced by block means of an integer factor, keeping at least twice
+    (height, width): the fast first step before the area-filtered resize (OpenImageIO's resize takes about 25 s from
+    8192x8192 to 64x64 on two cores, the block means about 1 s). Smaller images come back unchanged. The few rows and
+    columns that do not fill a block are trimmed evenly from both sides."""
+    factor = min(image.shape[0] // height, image.shape[1] // width) // 2
+    if factor < 2:
+        return image
+    rows, cols = image.shape[0] // factor * factor, image.shape[1] // factor * factor
+    top, left = (image.shape[0] - rows) // 2, (image.shape[1] - cols) // 2
+    blocks = image[top:top + rows, left:left + cols].reshape(rows // factor, factor, cols // factor, factor, -1)
+    return blocks.mean(axis=(1, 3), dtype=np.float32)
+
+
+_SESSIONS: dict[tuple[str, int, int], EncoderSession] = {}
+
+
+def cached_session(path: str | Path) -> EncoderSession:
+    """One EncoderSession per model file, made on first use and reused while the file is unchanged.
+
+    Keyed by the resolved path, its mtime and its size: a retrained model written over the old one is loaded again.
+    A file that fails to load is not cached (the next call tries again and says why again).
+    """
+    path = Path(path).expanduser().resolve()
+    if not path.is_file():
+        raise VtoError(f"no encoder model at {path}")
+    stat = path.stat()
+    key = (str(path), stat.st_mtime_ns, stat.st_size)
+    session = _SESSIONS.get(key)
+    if session is None:
+        session = EncoderSession(path)
+        for stale in [k for k in _SESSIONS if k[0] == key[0]]:
+            del _SESSIONS[stale]
+        _SESSIONS[key] = session
+    return session

@@ -1,7 +1,17 @@
-"""The add-on as a Blender extension: built with Blender's own tool, installed into bpy, `vto` registered."""
+"""The add-on as a Blender extension: built with Blender's own tool, installed into bpy, `vto` registered.
 
+The extension ships vto_core and onnxruntime as wheels (no vendored folder, no sys.path edits). Blender installs
+extension wheels into <user resources>/extensions/.local/lib/python3.11/site-packages and appends that folder to
+sys.path, so in this venv its own onnxruntime would win; the install runs in an isolated Python (`-I -S`) that sees
+only what Blender's own Python ships that we need (bpy, numpy, OpenImageIO), as inside Blender.
+"""
+
+import importlib.util
+import json
+import os
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -11,34 +21,108 @@ pytestmark = [pytest.mark.blender, pytest.mark.slow]
 pytest.importorskip("bpy")
 
 ROOT = Path(__file__).resolve().parents[2]
+ONNXRUNTIME = "1.18.1"
+# Blender's own Python ships these; the venv's other packages (its onnxruntime among them) stay out of sight.
+BLENDER_PYTHON_MODULES = ["bpy", "numpy", "numpy.libs", "OpenImageIO"]
 
 INSTALL_AND_RUN = r'''
-import sys, bpy
-bpy.ops.extensions.package_install_files(filepath=sys.argv[1], repo="user_default", enable_on_install=True)
+import json, sys
+sys.path.insert(0, sys.argv[1])
+import bpy
+package, out, params = sys.argv[2:5]
+bpy.ops.extensions.package_install_files(filepath=package, repo="user_default", enable_on_install=True)
 addon = sys.modules["bl_ext.user_default.vto_match"]
 assert addon._cli_handle is not None, "register() did not register the vto command"
-import vto_core
-print("CORE", vto_core.__file__)
-print("RC", addon.run_cli(["render", "hair", "--params", '{"hue": 0.5}', "--res", "16", "--samples", "2",
-                           "--out", sys.argv[2]]))
+import onnxruntime, vto_core
+report = {"addon": addon.__file__, "vto_core": vto_core.__file__, "onnxruntime": onnxruntime.__file__,
+          "onnxruntime_version": onnxruntime.__version__, "sys_path": sys.path,
+          "blender_addon_alias": "blender_addon" in sys.modules,
+          "extensions_site": bpy.utils.user_resource("EXTENSIONS", path=".local")}
+report["render"] = addon.run_cli(["render", "hair", "--params", '{"hue": 0.5}', "--res", "16", "--samples", "2",
+                                  "--out", out])
+model = str(__import__("pathlib").Path(addon.__file__).parent / "models" / "hair_encoder.onnx")
+report["match"] = addon.run_cli(["match", "--model", model, "--image", out, "--out-params", params,
+                                 "--source", "0", "--refine", "render:3", "--samples", "2"])
+report["modules"] = {name: sys.modules[name].__file__ for name in ("vto_core.cli", "onnxruntime", "cma")}
+report["scipy"] = "scipy" in sys.modules
+report["commands"] = sorted(m for m in sys.modules if m.endswith((".commands", ".match")))
+print("REPORT " + json.dumps(report))
 '''
 
 
+def wheel_cache() -> Path:
+    """Where the onnxruntime wheel is kept between runs (pip-downloaded once by the build script)."""
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return Path(os.environ.get("VTO_WHEEL_CACHE") or base / "vto_match" / "wheels")
+
+
+def blender_python_site(folder: Path) -> Path:
+    """A site folder holding links to the modules Blender's Python ships, taken from this venv."""
+    folder.mkdir()
+    site = Path(importlib.util.find_spec("bpy").origin).parent.parent
+    for name in BLENDER_PYTHON_MODULES:
+        if (site / name).exists():
+            (folder / name).symlink_to(site / name)
+    return folder
+
+
 def test_extension_builds_installs_and_runs_the_cli(tmp_path):
-    build = subprocess.run([sys.executable, str(ROOT / "scripts" / "build_extension.py"), "--out", str(tmp_path)],
-                           capture_output=True, text=True)
+    build = subprocess.run([sys.executable, str(ROOT / "scripts" / "build_extension.py"), "--out", str(tmp_path),
+                            "--platform", "current", "--wheels", str(wheel_cache())], capture_output=True, text=True)
     assert build.returncode == 0, build.stdout[-800:] + build.stderr[-800:]
     package = Path(build.stdout.strip().splitlines()[-1])
-    assert package.name == "vto_match-0.1.0.zip"
-    out = tmp_path / "hair.png"
-    env = {"BLENDER_USER_RESOURCES": str(tmp_path / "user"), "PATH": "/usr/bin:/bin"}
-    done = subprocess.run([sys.executable, "-c", INSTALL_AND_RUN, str(package), str(out)], capture_output=True,
-                          text=True, env=env, cwd=tmp_path)
-    assert done.returncode == 0, done.stderr[-1500:]
-    lines = dict(line.split(" ", 1) for line in done.stdout.splitlines() if line.startswith(("CORE", "RC")))
-    assert "/extensions/user_default/vto_match/_vendor/vto_core/" in lines["CORE"], "vto_core must come from the add-on"
-    assert lines["RC"] == "0"
+    assert package == tmp_path / "vto_match-0.1.0.zip" and package.is_file()
+
+    with zipfile.ZipFile(package) as archive:
+        names = archive.namelist()
+        manifest = archive.read("blender_manifest.toml").decode()
+    wheels = sorted(n for n in names if n.startswith("wheels/"))
+    assert len(wheels) == 4, wheels
+    assert wheels[0] == "wheels/cma-4.5.0-py3-none-any.whl"
+    assert wheels[1].startswith(f"wheels/onnxruntime-{ONNXRUNTIME}-cp311-cp311-") and wheels[1].endswith(".whl")
+    assert wheels[2:] == ["wheels/tqdm-4.70.1-py3-none-any.whl", "wheels/vto_core-0.1.0-py3-none-any.whl"]
+    for wheel in wheels:
+        assert f'"./{wheel}"' in manifest, f"{wheel} is not listed in the built manifest"
+    assert not [n for n in names if "_vendor" in n or "__pycache__" in n or n.endswith(".pyc") or "tests/" in n]
+    for model in ("lipstick_encoder.onnx", "lipstick_encoder.md", "hair_encoder.onnx", "hair_encoder.md"):
+        assert f"models/{model}" in names
+    assert "vto_core/" not in {n.split("/")[0] + "/" for n in names}, "vto_core must come as a wheel, not a folder"
+
+    user = tmp_path / "user"
+    out, params = tmp_path / "hair.png", tmp_path / "hair.json"
+    env = {"BLENDER_USER_RESOURCES": str(user), "PATH": "/usr/bin:/bin", "HOME": str(tmp_path)}
+    done = subprocess.run([sys.executable, "-I", "-S", "-c", INSTALL_AND_RUN,
+                           str(blender_python_site(tmp_path / "blender_site")), str(package), str(out), str(params)],
+                          capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert done.returncode == 0, done.stdout[-1500:] + done.stderr[-1500:]
+    (line,) = [line for line in done.stdout.splitlines() if line.startswith("REPORT ")]
+    report = json.loads(line.removeprefix("REPORT "))
+
+    installed = user / "extensions" / "user_default" / "vto_match"
+    site = user / "extensions" / ".local" / "lib" / "python3.11" / "site-packages"
+    assert Path(report["extensions_site"]) == user / "extensions" / ".local"
+    assert Path(report["addon"]) == installed / "__init__.py"
+    assert Path(report["vto_core"]) == site / "vto_core" / "__init__.py"
+    assert Path(report["modules"]["vto_core.cli"]) == site / "vto_core" / "cli.py"
+    assert Path(report["onnxruntime"]) == site / "onnxruntime" / "__init__.py"
+    assert report["onnxruntime_version"] == ONNXRUNTIME
+    assert Path(report["modules"]["cma"]) == site / "cma" / "__init__.py"
+    assert not report["scipy"], "Blender's Python has no scipy"
+    assert str(site) in report["sys_path"]
+    assert not [p for p in report["sys_path"] if "_vendor" in p or str(installed) in p]
+    assert not report["blender_addon_alias"], "no sys.modules alias: the CLI is told the extension's package"
+    assert report["commands"] == ["bl_ext.user_default.vto_match.commands", "bl_ext.user_default.vto_match.match"]
+    for model in ("lipstick_encoder.onnx", "lipstick_encoder.md", "hair_encoder.onnx", "hair_encoder.md"):
+        assert (installed / "models" / model).is_file()
+    assert (site / "vto_core" / "presets" / "lipstick.json").is_file()
+
+    assert report["render"] == 0 and report["match"] == 0, done.stderr[-1500:]
     from vto_core.imageio import read_image
 
     image, _ = read_image(out)
     assert image.shape == (16, 16, 3) and np.isfinite(image).all()
+    (matched,) = [json.loads(line) for line in done.stdout.splitlines() if line.startswith('{"out": "' + str(params))]
+    assert matched["refined"] is True and not matched["note"], "the render search (cma) ran in the installed copy"
+    estimate = json.loads(params.read_text())
+    assert estimate["renderer"] == "hair" and estimate["params"]
+    assert all(np.isfinite(v) for v in estimate["params"].values())

@@ -113,6 +113,22 @@ def test_render_search_spends_its_budget_exactly_stays_in_range_and_never_worsen
         assert refined.loss < refined.start_loss  # 6 renders around a white start find something redder
 
 
+def test_held_dimensions_render_at_their_value_stay_out_of_the_search_and_keep_the_start():
+    seen = []
+    target = np.array([0.2, 0.7, 0.4])
+
+    def render_unit(unit):
+        seen.append(np.array(unit))
+        return np.full((4, 4, 3), np.abs(unit - target).sum(), np.float32)
+
+    start = np.array([0.5, 0.5, 0.5])
+    refined = refine_by_render(render_unit, np.zeros((4, 4, 3), np.float32), start, 30, held={1: 0.9})
+    assert refined.renders == 30 == len(seen)
+    assert all(u[1] == 0.9 for u in seen)  # rendered at the held value, never searched
+    assert refined.unit[1] == 0.5  # the start's value stands
+    assert refined.loss < refined.start_loss and abs(refined.unit[0] - 0.2) < abs(0.5 - 0.2)
+
+
 def test_match_refines_through_the_renderer_and_the_imitator(models, reference, tmp_path, capsys):
     encoder, imitator = models
     by_render = match(encoder, reference, source=str(SOURCE), refine="render:5", samples=SAMPLES)

@@ -59,3 +59,20 @@ def test_spots_beyond_max_lights_are_dropped_and_counted():
     residual, lights, dropped = split_environment(rgb, max_lights=1, min_share=0.0)
     assert len(lights) == 1 and 0.0 < dropped < 0.5
     assert np.isfinite(residual).all()
+
+
+def test_label_spots_matches_scipy_ndimage_label():
+    """The numpy labelling (Blender's Python has no scipy) gives scipy's labels, numbering included."""
+    ndimage = pytest.importorskip("scipy.ndimage")
+    from vto_core.envlight import label_spots
+
+    rng = np.random.default_rng(3)
+    masks = [rng.random(rng.integers(1, 30, 2)) < rng.random() for _ in range(200)]
+    snake = np.zeros((41, 41), bool)
+    snake[::2] = True
+    snake[1::4, -1] = True
+    snake[3::4, 0] = True
+    for mask in masks + [snake, np.zeros((4, 5), bool), np.ones((3, 7), bool)]:
+        expected, count = ndimage.label(mask)
+        labels, got = label_spots(mask)
+        assert got == count and np.array_equal(labels, expected)

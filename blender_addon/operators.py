@@ -1,0 +1,215 @@
+"""Operators of Match from photo: thin wrappers over blender_addon.apply (one class per operator, the docstring is
+the tooltip). Each is undoable in one step; on bad input it reports one line and changes nothing."""
+
+from __future__ import annotations
+
+import time
+
+import bpy
+from bpy.props import EnumProperty, FloatVectorProperty, StringProperty
+
+from vto_core.errors import VtoError
+
+from . import apply
+from .preferences import preference_model
+from .properties import QUALITY_ITEMS, remember, settings_dict
+
+TICK_SECONDS = 0.05  # refinement work per timer tick, at least one render: the UI answers between ticks
+
+
+class VTO_OT_add_lipstick_material(bpy.types.Operator):
+    """Add a "VTO Lipstick" material to the active mesh: the lipstick node group over a bare-lips shader"""
+
+    bl_idname = "vto.add_lipstick_material"
+    bl_label = "Add VTO Lipstick Material"
+    bl_options = {"REGISTER", "UNDO"}
+
+    object_name: StringProperty(name="Object", default="", description="Mesh object (default: the active object)")
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and context.object.type == "MESH"
+
+    def execute(self, context):
+        obj = bpy.data.objects.get(self.object_name) if self.object_name else context.object
+        try:
+            material = apply.add_lipstick_material(obj)
+        except VtoError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"added material '{material.name}' to '{obj.name}'")
+        return {"FINISHED"}
+
+
+class VTO_OT_add_hair_compositor(bpy.types.Operator):
+    """Add the two VTO hair compositor groups to this scene's compositor, wired to the render and the output"""
+
+    bl_idname = "vto.add_hair_compositor"
+    bl_label = "Add VTO Hair Compositor"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None
+
+    def execute(self, context):
+        nodes = apply.add_hair_compositor(context.scene)
+        self.report({"INFO"}, f"added {' and '.join(n.name for n in nodes)} to the compositor of "
+                              f"'{context.scene.name}'")
+        return {"FINISHED"}
+
+
+class VTO_OT_match_from_photo(bpy.types.Operator):
+    """Estimate the look of the reference photo and write it into the group's inputs (one undo step)"""
+
+    bl_idname = "vto.match_from_photo"
+    bl_label = "Match"
+    bl_options = {"REGISTER", "UNDO"}
+
+    target: EnumProperty(name="Target", items=[
+        ("MATERIAL", "Lipstick Material", "The 'VTO Lipstick' group of a material"),
+        ("HAIR", "Hair Compositor", "The VTO hair groups of the scene's compositor")], default="MATERIAL")
+    material: StringProperty(name="Material", default="", description="Material name (default: the active one)")
+    image_path: StringProperty(name="Image", subtype="FILE_PATH", description="Reference photo (default: the panel's)")
+    image_name: StringProperty(name="Image Datablock", default="", description="An image of this .blend instead")
+    mask_path: StringProperty(name="Mask", subtype="FILE_PATH", description="Optional mask image")
+    crop: FloatVectorProperty(name="Crop", size=4, min=0.0, default=(0.0, 0.0, 1.0, 1.0),
+                              description="x, y, w, h from the top-left, pixels or fractions")
+    model_path: StringProperty(name="Model", subtype="FILE_PATH", description="Encoder (.onnx); default: the panel's")
+    quality: EnumProperty(name="Quality", items=QUALITY_ITEMS, default="FAST")
+
+    def settings(self, stored) -> dict:
+        """The stored panel settings (if any), overridden by whatever was passed to this call."""
+        settings = settings_dict(stored) if stored is not None else {"quality": "FAST"}
+        passed = self.properties.is_property_set
+        if passed("image_path") or passed("image_name"):
+            settings.pop("image_path", None)
+            settings.pop("image_name", None)
+            settings["image_path" if passed("image_path") else "image_name"] = (
+                self.image_path if passed("image_path") else self.image_name)
+        for name in ("mask_path", "model_path", "quality"):
+            if passed(name):
+                settings[name] = getattr(self, name)
+        if passed("crop"):
+            settings["crop"] = tuple(self.crop)
+        return settings
+
+    def begin(self, context):
+        """(the validated MatchJob, the settings group to remember the values in); VtoError on bad input."""
+        renderer = "hair" if self.target == "HAIR" else "lipstick"
+        material, stored = None, None
+        if renderer == "lipstick":
+            material = bpy.data.materials.get(self.material) if self.material else getattr(context, "material", None)
+            if self.material and material is None:
+                raise VtoError(f"no material '{self.material}' in this .blend")
+            if material is None:
+                raise VtoError("no material: pass material=NAME or select an object with a material")
+            stored = getattr(material, "vto_match", None)
+        else:
+            stored = getattr(context.scene, "vto_hair_match", None)
+        settings = self.settings(stored)
+        settings["preference_model"] = preference_model(context, renderer)
+        if renderer == "lipstick":
+            return apply.MatchJob(renderer, settings, material_name=material.name), stored
+        return apply.MatchJob(renderer, settings, scene=context.scene), stored
+
+    def fail(self, exc: Exception) -> set:
+        """One line in the report; nothing was written."""
+        text = str(exc) if isinstance(exc, VtoError) else f"{type(exc).__name__}: {(str(exc).splitlines() or [''])[0]}"
+        self.report({"ERROR"}, text)
+        return {"CANCELLED"}
+
+    def done(self, job, stored, values) -> set:
+        """Write the values (targets checked again), remember them for the panel, report one line."""
+        result = job.finish(values)
+        for warning in job.warnings:
+            self.report({"WARNING"}, warning)
+        if stored is not None:
+            remember(stored, job.renderer, result["values"], result["model"])
+        self.report({"INFO"}, f"matched {job.where} in {1000 * result['seconds']:.0f} ms: "
+                              + ", ".join(apply.describe(result["spec"], result["values"])))
+        return {"FINISHED"}
+
+    def execute(self, context):
+        window_manager = context.window_manager
+        try:
+            job, stored = self.begin(context)
+        except Exception as exc:  # VtoError, or anything unforeseen: still one line, never a traceback in the UI
+            return self.fail(exc)
+        if job.budget:
+            window_manager.progress_begin(0, job.budget)
+        try:
+            values = apply.drain(job.steps(), window_manager.progress_update if job.budget else None)
+            return self.done(job, stored, values)
+        except Exception as exc:
+            return self.fail(exc)
+        finally:
+            if job.budget:
+                window_manager.progress_end()
+
+    def invoke(self, context, event):
+        """From the UI, refinement runs a few renders per timer tick (the UI stays live; Esc cancels)."""
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        try:
+            job, stored = self.begin(context)
+        except Exception as exc:
+            return self.fail(exc)
+        if not job.budget:
+            try:
+                return self.done(job, stored, apply.drain(job.steps()))
+            except Exception as exc:
+                return self.fail(exc)
+        window_manager = context.window_manager
+        self._job, self._stored, self._steps = job, stored, job.steps()
+        window_manager.progress_begin(0, job.budget)
+        self._timer = window_manager.event_timer_add(0.02, window=context.window)
+        window_manager.modal_handler_add(self)
+        self.report({"INFO"}, f"refining with {job.budget} renders (Esc cancels, nothing is changed until the end)")
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self.stop(context)
+            self.report({"WARNING"}, "Match cancelled: nothing changed")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        deadline = time.perf_counter() + TICK_SECONDS
+        try:
+            while True:
+                context.window_manager.progress_update(next(self._steps))
+                if time.perf_counter() > deadline:
+                    return {"RUNNING_MODAL"}
+        except StopIteration as finished:
+            self.stop(context)
+            try:
+                return self.done(self._job, self._stored, finished.value)
+            except Exception as exc:
+                return self.fail(exc)
+        except Exception as exc:
+            self.stop(context)
+            return self.fail(exc)
+
+    def stop(self, context) -> None:
+        context.window_manager.event_timer_remove(self._timer)
+        context.window_manager.progress_end()
+
+
+CLASSES = (VTO_OT_add_lipstick_material, VTO_OT_add_hair_compositor, VTO_OT_match_from_photo)
+
+
+def _material_menu(self, context):
+    self.layout.operator(VTO_OT_add_lipstick_material.bl_idname, icon="MATERIAL")
+
+
+def register() -> None:
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+    bpy.types.MATERIAL_MT_context_menu.append(_material_menu)
+
+
+def unregister() -> None:
+    bpy.types.MATERIAL_MT_context_menu.remove(_material_menu)
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

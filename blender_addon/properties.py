@@ -1,0 +1,66 @@
+"""What the "Match from photo" panel remembers: one settings group per material (lipstick) and per scene (hair)."""
+
+from __future__ import annotations
+
+import json
+
+import bpy
+from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, PointerProperty, StringProperty
+
+QUALITY_ITEMS = [
+    ("FAST", "Fast", "The encoder's estimate alone (milliseconds)"),
+    ("BETTER", "Better", "The estimate refined by 25 renders of the reference's own source (render search)"),
+    ("BEST", "Best", "The estimate refined by 100 renders of the reference's own source (render search)"),
+]
+
+
+class VTO_PG_match_settings(bpy.types.PropertyGroup):
+    """Reference, crop or mask, model and quality of Match from photo, and the last estimate."""
+
+    use_datablock: BoolProperty(name="Image in this .blend", default=False,
+                                description="Use an image datablock already in the .blend instead of a file")
+    image_path: StringProperty(name="Reference", subtype="FILE_PATH", description="The reference photo")
+    image: PointerProperty(name="Reference Image", type=bpy.types.Image,
+                           description="An image already in the .blend as the reference")
+    use_crop: BoolProperty(name="Crop", default=False, description="Estimate from a part of the reference only")
+    crop: FloatVectorProperty(name="Crop", size=4, min=0.0, default=(0.0, 0.0, 1.0, 1.0),
+                              description="x, y, width, height from the top-left corner: in pixels, or fractions of "
+                                          "the image when all four are at most 1")
+    mask_path: StringProperty(name="Mask", subtype="FILE_PATH",
+                              description="Optional mask image. Lipstick: white = the lips, the reference is "
+                                          "cropped to them. Hair: white = the hair, which makes Better and Best "
+                                          "possible (the photo is its own source)")
+    model_path: StringProperty(name="Model", subtype="FILE_PATH",
+                               description="An encoder (.onnx) for this material only; empty: the add-on "
+                                           "preferences' model, else the shipped one")
+    quality: EnumProperty(name="Quality", items=QUALITY_ITEMS, default="FAST")
+    last_estimate: StringProperty(name="Last Estimate", default="", options={"HIDDEN"},
+                                  description="JSON of the last values written, for the panel")
+
+
+def settings_dict(props: VTO_PG_match_settings) -> dict:
+    """The panel's settings as the plain dict blender_addon.apply takes."""
+    settings = {"quality": props.quality, "model_path": props.model_path, "mask_path": props.mask_path,
+                "crop": tuple(props.crop) if props.use_crop else None}
+    if props.use_datablock:
+        settings["image_name"] = props.image.name if props.image else ""
+    else:
+        settings["image_path"] = props.image_path
+    return settings
+
+
+def remember(props, renderer: str, values: dict[str, float], model: str) -> None:
+    """Store the values written, for the panel to show."""
+    props.last_estimate = json.dumps({"renderer": renderer, "values": values, "model": model})
+
+
+def register() -> None:
+    bpy.utils.register_class(VTO_PG_match_settings)
+    bpy.types.Material.vto_match = PointerProperty(type=VTO_PG_match_settings)
+    bpy.types.Scene.vto_hair_match = PointerProperty(type=VTO_PG_match_settings)
+
+
+def unregister() -> None:
+    del bpy.types.Scene.vto_hair_match
+    del bpy.types.Material.vto_match
+    bpy.utils.unregister_class(VTO_PG_match_settings)

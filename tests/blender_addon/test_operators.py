@@ -1,0 +1,633 @@
+"""Match from photo in Blender: the starting-point operators, the match operator (values, undo, bad input), the
+panels' polls, and `vto match --material NAME --save` on a .blend."""
+
+import hashlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+pytestmark = [pytest.mark.blender, pytest.mark.torch, pytest.mark.slow]
+bpy = pytest.importorskip("bpy")
+
+import blender_addon  # noqa: E402
+from blender_addon import apply  # noqa: E402
+from blender_addon.match import load_reference  # noqa: E402
+from vto_core.errors import VtoError  # noqa: E402
+from vto_core.imageio import write_image  # noqa: E402
+from vto_core.inference import EncoderSession, cached_session  # noqa: E402
+from vto_core.specs import get_spec  # noqa: E402
+
+MODEL = str(apply.default_model("lipstick"))
+SPEC = EncoderSession(MODEL).spec  # whatever the shipped model estimates: read from its metadata
+LIPSTICK = get_spec("lipstick")
+UNTOUCHED = {"sheen": 0.7, "texture": 0.25}  # inputs the shipped model does not estimate: a match leaves them
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module", autouse=True)
+def addon():
+    kinds = ("objects", "meshes", "materials", "scenes", "images")
+    before = {kind: set(getattr(bpy.data, kind).keys()) for kind in kinds}
+    blender_addon.register()
+    bpy.context.preferences.edit.undo_steps = 32
+    yield
+    blender_addon.unregister()
+    # Later test modules share this bpy session: remove what these tests made (never reload the file: other modules
+    # keep names of data they made, e.g. blender_addon.lighting's split HDRIs).
+    for kind in kinds:
+        collection = getattr(bpy.data, kind)
+        for name in set(collection.keys()) - before[kind]:
+            if name in collection:
+                collection.remove(collection[name])
+    assert bpy.data.filepath == ""
+
+
+def tiny_encoder(path: Path, spec, size: int = 8, scale: float = 1.0) -> str:
+    """A hand-made VTO encoder: every normalised parameter is `scale` x the image's mean (deterministic, tiny)."""
+    import onnx
+    from onnx import TensorProto, helper
+
+    m = spec.size
+    nodes = [helper.make_node("ReduceMean", ["image", "axes"], ["mean"], keepdims=0),
+             helper.make_node("Unsqueeze", ["mean", "one"], ["column"]),
+             helper.make_node("Mul", ["column", "weights"], ["params_unit"])]
+    inits = [helper.make_tensor("axes", TensorProto.INT64, [3], [1, 2, 3]),
+             helper.make_tensor("one", TensorProto.INT64, [1], [1]),
+             helper.make_tensor("weights", TensorProto.FLOAT, [1, m], [scale] * m)]
+    graph = helper.make_graph(nodes, "tiny", [helper.make_tensor_value_info("image", TensorProto.FLOAT,
+                                                                            ["N", 3, size, size])],
+                              [helper.make_tensor_value_info("params_unit", TensorProto.FLOAT, ["N", m])], inits)
+    model = helper.make_model(graph, ir_version=10, opset_imports=[helper.make_opsetid("", 18)])
+    for key, value in {"vto.spec": spec.to_json(), "vto.input_size": f"{size}x{size}", "vto.renderer": spec.renderer,
+                       "vto.kind": "encoder"}.items():
+        model.metadata_props.add(key=key, value=value)
+    onnx.save(model, str(path))
+    return str(path)
+
+
+def gradient_image(height: int = 24, width: int = 24) -> np.ndarray:
+    rows = np.linspace(0.1, 0.9, height, dtype=np.float32)[:, None]
+    cols = np.linspace(0.2, 0.6, width, dtype=np.float32)[None, :]
+    return np.stack([np.broadcast_to(rows, (height, width)), np.broadcast_to(cols, (height, width)),
+                     np.full((height, width), 0.3, np.float32)], -1)
+
+
+@pytest.fixture
+def reference(tmp_path):
+    path = tmp_path / "reference.png"
+    write_image(path, gradient_image(), bits=16)
+    return str(path)
+
+
+def new_mesh(name: str):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0)], [], [(0, 1, 2)])
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.objects.active = obj
+    return obj
+
+
+@pytest.fixture
+def material(request):
+    """A mesh with a fresh "VTO Lipstick" material made by the operator; two unestimated inputs set by hand."""
+    obj = new_mesh(f"Lips {request.node.name}"[:60])
+    assert bpy.ops.vto.add_lipstick_material() == {"FINISHED"}
+    material = obj.active_material
+    for name, value in UNTOUCHED.items():
+        group_node(material).inputs[LIPSTICK.by_name[name].socket].default_value = value
+    return material.name
+
+
+def group_node(material):
+    if isinstance(material, str):
+        material = bpy.data.materials[material]
+    (node,) = apply.lipstick_nodes(material)
+    return node
+
+
+def inputs_of(material_name: str) -> dict[str, float]:
+    node = group_node(material_name)
+    return {p.name: float(node.inputs[p.socket].default_value) for p in LIPSTICK.params}
+
+
+def expected_estimate(image: np.ndarray, model: str = MODEL) -> dict[str, float]:
+    session = EncoderSession(model)
+    values = session.predict(image)[0]
+    return {name: values[name] for name in session.spec.modelled}
+
+
+def run_match(**kwargs):
+    """The operator as a script calls it: ({'FINISHED'}, None) or ({'CANCELLED'}, the one error line)."""
+    try:
+        return bpy.ops.vto.match_from_photo(**kwargs), None
+    except RuntimeError as exc:
+        return {"CANCELLED"}, str(exc).strip()
+
+
+def test_add_lipstick_material_wires_the_group_between_a_bare_shader_and_the_output(material):
+    tree = bpy.data.materials[material].node_tree
+    node = group_node(material)
+    assert node.node_tree.name == "VTO Lipstick"
+    (output,) = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
+    assert output.inputs["Surface"].links[0].from_node == node
+    assert node.inputs["Lips"].links[0].from_node.bl_idname == "ShaderNodeBsdfPrincipled"
+    assert [p.socket for p in LIPSTICK.params] == [s.name for s in node.inputs][1:]
+    obj = bpy.context.view_layer.objects.active
+    assert obj.active_material.name == material and obj.data.materials[-1].name == material
+    assert {"REGISTER", "UNDO"} <= set(bpy.types.VTO_OT_add_lipstick_material.bl_options)
+
+
+def test_add_lipstick_material_needs_a_mesh():
+    empty = bpy.data.objects.new("Empty For VTO", None)
+    bpy.context.scene.collection.objects.link(empty)
+    bpy.context.view_layer.objects.active = empty
+    count = len(bpy.data.materials)
+    with pytest.raises(RuntimeError, match="poll"):
+        bpy.ops.vto.add_lipstick_material()
+    with pytest.raises(VtoError, match="select a mesh"):
+        apply.add_lipstick_material(empty)
+    assert len(bpy.data.materials) == count
+
+
+def test_add_hair_compositor_wires_both_groups_to_the_outputs():
+    scene = bpy.data.scenes.new("Hair Shot")
+    with bpy.context.temp_override(scene=scene):
+        assert bpy.ops.vto.add_hair_compositor() == {"FINISHED"}
+    nodes = {n.node_tree.name: n for n in apply.hair_nodes(scene)}
+    assert set(nodes) == {"VTO Hair Swatch", "VTO Hair Color"}
+    color, swatch = nodes["VTO Hair Color"], nodes["VTO Hair Swatch"]
+    assert color.outputs[0].links[0].to_node.bl_idname == "CompositorNodeComposite"
+    assert color.inputs["Image"].links[0].from_node.bl_idname == "CompositorNodeRLayers"
+    assert swatch.outputs[0].links[0].to_node.bl_idname == "CompositorNodeViewer"
+    assert swatch.inputs["Image"].links[0].from_node.image.name == "hair_swatch.png"
+    assert color.inputs["Mask"].default_value == 1.0 and color.inputs["Gradient"].default_value == 1.0
+    hair = get_spec("hair")
+    assert {p.socket for p in hair.params} <= {s.name for n in nodes.values() for s in n.inputs}
+
+
+def test_match_writes_exactly_the_encoders_estimate_and_nothing_else(material, reference):
+    before = inputs_of(material)
+    assert run_match(material=material, image_path=reference) == ({"FINISHED"}, None)
+    after = inputs_of(material)
+    expected = expected_estimate(load_reference(reference))
+    for name, value in expected.items():
+        assert after[name] == pytest.approx(value, abs=1e-4)
+        param = LIPSTICK.by_name[name]
+        assert param.low <= after[name] <= param.high
+    changed = {k for k in after if after[k] != before[k]}
+    assert changed <= set(SPEC.modelled) and changed
+    assert {k: after[k] for k in UNTOUCHED} == pytest.approx(UNTOUCHED)
+    last = json.loads(bpy.data.materials[material].vto_match.last_estimate)
+    assert last["renderer"] == "lipstick" and last["values"] == pytest.approx(expected)
+
+
+def test_one_undo_step_restores_the_previous_values(material, reference):
+    before = inputs_of(material)
+    bpy.ops.ed.undo_push(message="before match")
+    assert run_match(material=material, image_path=reference)[0] == {"FINISHED"}
+    bpy.ops.ed.undo_push(message="Match")  # what Blender's UI does after an operator declaring UNDO
+    assert inputs_of(material) != before
+    bpy.ops.ed.undo()
+    assert inputs_of(material) == before
+    assert {"REGISTER", "UNDO"} <= set(bpy.types.VTO_OT_match_from_photo.bl_options)
+
+
+def test_a_large_reference_is_block_reduced_first_with_the_same_result():
+    from vto_core.imageio import resize
+    from vto_core.inference import shrink
+
+    rows = np.linspace(0, 1, 1024, dtype=np.float32)
+    image = np.stack([np.add.outer(rows, rows) / 2, np.outer(rows, rows), np.full((1024, 1024), 0.4, np.float32)], -1)
+    reduced = shrink(image, 64, 64)
+    assert reduced.shape == (128, 128, 3) and shrink(image[:1000, :300], 64, 64).shape == (500, 150, 3)
+    small = image[:16]
+    assert shrink(small, 64, 64) is small  # nothing to reduce
+    direct, fast = resize(image, 64, 64), resize(reduced, 64, 64)
+    assert np.abs(direct - fast).max() < 2e-3
+
+
+def test_the_model_is_the_override_else_the_preference_else_the_shipped_one(tmp_path):
+    from blender_addon.preferences import preference_model
+
+    assert apply.resolve_model("hair") == ROOT / "blender_addon" / "models" / "hair_encoder.onnx"
+    assert apply.resolve_model("lipstick", "", str(tmp_path / "pref.onnx")) == tmp_path / "pref.onnx"
+    assert apply.resolve_model("lipstick", str(tmp_path / "own.onnx"), str(tmp_path / "pref.onnx")) == (
+        tmp_path / "own.onnx")
+    assert preference_model(bpy.context, "lipstick") == ""  # registered without addon_utils: no preferences
+
+
+def test_the_session_is_made_once_per_model_file(tmp_path):
+    copy = tmp_path / "model.onnx"
+    copy.write_bytes(Path(MODEL).read_bytes())
+    first = cached_session(copy)
+    assert cached_session(str(copy)) is first
+    os.utime(copy, ns=(0, 10**9))  # a model written over the old one is loaded again
+    assert cached_session(copy) is not first
+
+
+@pytest.fixture
+def odd_files(tmp_path):
+    """Inputs that are bad, or unusual but good, written once per test."""
+    import onnx
+    from onnx import TensorProto, helper
+
+    image = gradient_image()
+    (tmp_path / "empty.png").write_bytes(b"")
+    (tmp_path / "corrupt.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 4)
+    (tmp_path / "notes.png").write_text("not an image")
+    write_image(tmp_path / "one.png", np.full((1, 1, 3), 0.5, np.float32))
+    write_image(tmp_path / "grey.png", image[..., 0])
+    write_image(tmp_path / "deep.png", image, bits=16)
+    write_image(tmp_path / "rgba.png", image, alpha=np.full(image.shape[:2], 0.5, np.float32))
+    nan = image.copy()
+    nan[2:5, 3:9] = np.nan
+    write_image(tmp_path / "nan.exr", nan, bits="float")
+    write_image(tmp_path / "all_nan.exr", np.full((16, 16, 3), np.nan, np.float32), bits="float")
+    write_image(tmp_path / "wide.png", np.tile(image[:16, :1], (1, 4096, 1)) * np.linspace(0.2, 1, 4096)[None, :, None])
+    (tmp_path / "junk.onnx").write_bytes(b"not a model")
+    (tmp_path / "truncated.onnx").write_bytes(Path(MODEL).read_bytes()[:100_000])
+    value = helper.make_tensor_value_info("x", TensorProto.FLOAT, [1])
+    graph = helper.make_graph([helper.make_node("Identity", ["x"], ["y"])], "foreign", [value],
+                              [helper.make_tensor_value_info("y", TensorProto.FLOAT, [1])])
+    onnx.save(helper.make_model(graph, ir_version=10, opset_imports=[helper.make_opsetid("", 18)]),
+              str(tmp_path / "foreign.onnx"))
+    tiny_encoder(tmp_path / "hair.onnx", get_spec("hair"))
+    other = json.loads(LIPSTICK.to_json())
+    other["params"][1]["high"] = 1.0  # red in [0, 1]: another version of the spec
+    from vto_core.specs import RendererSpec
+
+    tiny_encoder(tmp_path / "other_spec.onnx", RendererSpec.from_dict(other).select(["opacity", "red"]))
+    return tmp_path
+
+
+BAD = [
+    ({"image_path": "{tmp}/none.png"}, "no image at"),
+    ({"image_path": "{tmp}/empty.png"}, "cannot read image"),
+    ({"image_path": "{tmp}/corrupt.png"}, "cannot read image"),
+    ({"image_path": "{tmp}/notes.png"}, "cannot read image"),
+    ({"image_path": "{tmp}/one.png"}, "image is 1x1; at least 8x8"),
+    ({"image_path": "{tmp}/all_nan.exr"}, "every pixel is NaN or infinite"),
+    ({"image_name": "no such image"}, "no image 'no such image' in this .blend"),
+    ({"model_path": "{tmp}/none.onnx"}, "no encoder model"),
+    ({"model_path": "{tmp}/junk.onnx"}, "cannot load"),
+    ({"model_path": "{tmp}/truncated.onnx"}, "cannot load"),
+    ({"model_path": "{tmp}/foreign.onnx"}, "not a VTO encoder"),
+    ({"model_path": "{tmp}/hair.onnx"}, "estimates hair parameters, not lipstick"),
+    ({"model_path": "{tmp}/other_spec.onnx"}, "made for another lipstick spec: its 'red' spans [0, 1]"),
+    ({"quality": "BETTER"}, "a photo of a real face has none"),
+    ({"crop": (20, 20, 10, 10)}, "does not fit the 24x24 image"),
+    ({"mask_path": "{tmp}/none.png"}, "no mask image at"),
+    ({"material": "No Such Material"}, "no material 'No Such Material'"),
+]
+
+
+@pytest.mark.parametrize("kwargs, message", BAD, ids=[m.split(" ")[0] + str(i) for i, (_, m) in enumerate(BAD)])
+def test_bad_input_reports_one_line_and_changes_nothing(kwargs, message, material, reference, odd_files):
+    arguments = {"material": material, "image_path": reference}
+    arguments.update({k: v.replace("{tmp}", str(odd_files)) if isinstance(v, str) else v for k, v in kwargs.items()})
+    if "image_name" in kwargs:
+        del arguments["image_path"]
+    before = inputs_of(material)
+    files = {p.name: p.read_bytes() for p in odd_files.iterdir()}
+    result, error = run_match(**arguments)
+    assert result == {"CANCELLED"}
+    assert len(error.splitlines()) == 1 and error.startswith("Error: ") and message in error, error
+    assert inputs_of(material) == before and bpy.data.materials[material].vto_match.last_estimate == ""
+    assert {p.name: p.read_bytes() for p in odd_files.iterdir()} == files
+
+
+def test_a_material_without_the_group_or_with_a_linked_input_changes_nothing(reference):
+    plain = bpy.data.materials.new("Plain VTO Test")
+    plain.use_nodes = True
+    result, error = run_match(material=plain.name, image_path=reference)
+    assert result == {"CANCELLED"} and "does not use the 'VTO Lipstick' node group" in error
+    obj = new_mesh("Linked Lips")
+    bpy.ops.vto.add_lipstick_material()
+    name = obj.active_material.name
+    tree = obj.active_material.node_tree
+    value = tree.nodes.new("ShaderNodeValue")
+    red = LIPSTICK.by_name["red"].socket
+    tree.links.new(value.outputs[0], group_node(name).inputs[red])
+    before = inputs_of(name)
+    result, error = run_match(material=name, image_path=reference)
+    assert result == {"CANCELLED"} and f"input '{red}' of node 'VTO Lipstick'" in error and "driven by a link" in error
+    assert inputs_of(name) == before
+
+
+@pytest.mark.parametrize("name", ["grey.png", "deep.png", "rgba.png", "nan.exr", "wide.png"])
+def test_unusual_but_valid_images_are_matched(name, material, odd_files):
+    path = str(odd_files / name)
+    assert run_match(material=material, image_path=path) == ({"FINISHED"}, None)
+    if name == "nan.exr":
+        with pytest.warns(UserWarning, match="18 NaN or infinite pixel"):
+            reference = load_reference(path)
+    else:
+        reference = load_reference(path)
+    expected = expected_estimate(reference)
+    after = inputs_of(material)
+    assert {n: after[n] for n in expected} == pytest.approx(expected, abs=1e-4)
+    assert all(np.isfinite(v) for v in after.values())
+
+
+def test_nan_pixels_are_read_as_zero_with_a_warning(odd_files):
+    job = apply.MatchJob("lipstick", {"image_path": str(odd_files / "nan.exr")}, material_name=new_material())
+    assert job.warnings == [f"{odd_files / 'nan.exr'}: 18 NaN or infinite pixel(s) read as 0 (NaN, -inf) or 1 (+inf)"]
+    assert np.isfinite(job.prepared["reference"]).all() and (job.prepared["reference"][2:5, 3:9] == 0).all()
+
+
+def new_material() -> str:
+    obj = new_mesh("NaN Lips")
+    return apply.add_lipstick_material(obj).name
+
+
+def test_crop_in_pixels_or_fractions_and_an_image_datablock(material, reference):
+    image = load_reference(reference)
+    expected = expected_estimate(np.ascontiguousarray(image[6:18, 0:12]))
+    for crop in ((0, 6, 12, 12), (0.0, 0.25, 0.5, 0.5)):
+        assert run_match(material=material, image_path=reference, crop=crop)[0] == {"FINISHED"}
+        after = inputs_of(material)
+        assert {n: after[n] for n in expected} == pytest.approx(expected, abs=1e-4)
+    mask = np.zeros((24, 24), np.float32)
+    mask[6:18, 0:12] = 1.0  # a lipstick mask: the reference is cropped to the lips' box
+    write_image(Path(reference).with_name("lips_mask.png"), mask)
+    assert run_match(material=material, image_path=reference,
+                     mask_path=str(Path(reference).with_name("lips_mask.png")))[0] == {"FINISHED"}
+    after = inputs_of(material)
+    assert {n: after[n] for n in expected} == pytest.approx(expected, abs=1e-4)
+    # an image already in the .blend (no file behind it): byte pixels are display values
+    pixels = gradient_image(16, 16)
+    datablock = bpy.data.images.new("VTO Test Reference", 16, 16)
+    rgba = np.concatenate([np.flipud(pixels), np.ones((16, 16, 1), np.float32)], -1)
+    datablock.pixels.foreach_set(rgba.reshape(-1))
+    assert run_match(material=material, image_name=datablock.name)[0] == {"FINISHED"}
+    stored = np.empty(16 * 16 * 4, np.float32)
+    datablock.pixels.foreach_get(stored)  # 8-bit codes / 255, bottom row first
+    stored = np.flipud(stored.reshape(16, 16, 4))[..., :3]
+    assert np.abs(stored - pixels).max() <= 1 / 255 + 1e-6
+    expected = expected_estimate(np.ascontiguousarray(stored))
+    after = inputs_of(material)
+    assert {n: after[n] for n in expected} == pytest.approx(expected, abs=1e-4)
+
+
+def test_the_panels_poll_by_material_and_editor(material):
+    plain = bpy.data.materials.new("Plain Poll Test")
+    match_panel, add_panel = bpy.types.VTO_PT_match_material, bpy.types.VTO_PT_add_lipstick
+    obj = bpy.context.view_layer.objects.active
+    assert match_panel.poll(SimpleNamespace(material=bpy.data.materials[material])) is True
+    assert match_panel.poll(SimpleNamespace(material=plain)) is False
+    assert match_panel.poll(SimpleNamespace(material=None)) is False
+    assert add_panel.poll(SimpleNamespace(object=obj, material=plain)) is True
+    assert add_panel.poll(SimpleNamespace(object=obj, material=bpy.data.materials[material])) is False
+    hair_panel = bpy.types.VTO_PT_match_hair
+    scene = bpy.context.scene
+    assert hair_panel.poll(SimpleNamespace(space_data=SimpleNamespace(tree_type="CompositorNodeTree"), scene=scene))
+    assert not hair_panel.poll(SimpleNamespace(space_data=SimpleNamespace(tree_type="ShaderNodeTree"), scene=scene))
+    assert (hair_panel.bl_space_type, hair_panel.bl_region_type) == ("NODE_EDITOR", "UI")
+    assert (match_panel.bl_space_type, match_panel.bl_context) == ("PROPERTIES", "material")
+
+
+def test_hair_fast_and_better_write_the_compositor_groups(tmp_path):
+    hair = get_spec("hair")
+    model = tiny_encoder(tmp_path / "hair.onnx", hair, scale=0.8)
+    scene = bpy.data.scenes.new("Hair Match")
+    with bpy.context.temp_override(scene=scene):
+        bpy.ops.vto.add_hair_compositor()
+    photo = gradient_image(16, 16)
+    write_image(tmp_path / "photo.png", photo, bits=16)
+    mask = np.zeros((16, 16), np.float32)
+    mask[:10] = 1.0
+    write_image(tmp_path / "photo_mask.png", mask)
+
+    def values():
+        return {p.name: float(n.inputs[p.socket].default_value) for n in apply.hair_nodes(scene) for p in hair.params
+                if p.socket in n.inputs}
+
+    with bpy.context.temp_override(scene=scene):
+        result, error = run_match(target="HAIR", image_path=str(tmp_path / "photo.png"), model_path=model,
+                                  quality="BETTER")
+        assert result == {"CANCELLED"} and "needs its hair mask" in error
+        assert run_match(target="HAIR", image_path=str(tmp_path / "photo.png"), model_path=model) == ({"FINISHED"},
+                                                                                                      None)
+        fast = values()
+        assert fast == pytest.approx(expected_estimate(load_reference(str(tmp_path / "photo.png")), model), abs=1e-4)
+        assert run_match(target="HAIR", image_path=str(tmp_path / "photo.png"), model_path=model, quality="BETTER",
+                         mask_path=str(tmp_path / "photo_mask.png"))[0] == {"FINISHED"}
+    better = values()
+    assert better != fast and hair.check_values(better) == pytest.approx(better)
+    # the photo is its own source: intensity and blend could undo the stage, so the search holds them and the
+    # encoder's values stand
+    assert {k: better[k] for k in ("intensity", "blend")} == pytest.approx({k: fast[k] for k in ("intensity", "blend")})
+
+
+# --- `vto match --material NAME --save` -------------------------------------------------------------------------
+
+def digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+@pytest.fixture
+def blend(tmp_path, material):
+    """A .blend holding the lipstick material (saved as a copy: the session's own file stays unnamed)."""
+    path = tmp_path / "scene.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    return path
+
+
+def vto(*argv):
+    return subprocess.run([sys.executable, "-m", "vto_core.cli", "match", *argv], capture_output=True, text=True,
+                          cwd=ROOT)
+
+
+def test_cli_material_save_writes_the_estimate_into_the_blend(blend, material, reference):
+    before = digest(blend)
+    out = blend.parent / "params.json"
+    done = vto("--material", material, "--image", reference, "--blend", str(blend), "--save", "--out-params", str(out))
+    assert done.returncode == 0, done.stderr[-800:]
+    printed = json.loads(done.stdout.strip().splitlines()[-1])
+    expected = expected_estimate(load_reference(reference))
+    assert printed["params"] == pytest.approx(expected, abs=1e-6)
+    assert json.loads(out.read_text()) == {"renderer": "lipstick", "params": printed["params"]}
+    assert digest(blend) != before
+    assert sorted(os.listdir(blend.parent)) == ["params.json", "reference.png", "scene.blend"]  # no temporary left
+    stored = saved_values(blend, material)
+    assert {n: stored[n] for n in expected} == pytest.approx(expected, abs=1e-4)
+    assert {k: stored[k] for k in UNTOUCHED} == pytest.approx(UNTOUCHED)
+
+
+def saved_values(blend: Path, material: str) -> dict[str, float]:
+    """The lipstick group inputs of `material` as saved in `blend` (read by another process, so this session's file
+    stays unnamed)."""
+    child = ("import bpy, sys, json; bpy.ops.wm.open_mainfile(filepath=sys.argv[1]); "
+             "n = [n for n in bpy.data.materials[sys.argv[2]].node_tree.nodes if n.bl_idname == 'ShaderNodeGroup'][0]; "
+             "print(json.dumps({s.name: s.default_value for s in n.inputs[1:]}))")
+    read = subprocess.run([sys.executable, "-c", child, str(blend), material], capture_output=True, text=True)
+    stored = json.loads(read.stdout.strip().splitlines()[-1])
+    return {p.name: stored[p.socket] for p in LIPSTICK.params}
+
+
+def test_cli_inside_blender_uses_the_open_file(blend, material, reference):
+    """`blender -b scene.blend -c vto match --material NAME --image IMG --save`: the file is open, no --blend."""
+    child = ("import bpy, sys; bpy.ops.wm.open_mainfile(filepath=sys.argv[1]); import blender_addon; "
+             "blender_addon.register(); sys.exit(blender_addon.run_cli(sys.argv[2:]))")
+    done = subprocess.run([sys.executable, "-c", child, str(blend), "match", "--material", material, "--image",
+                           reference, "--save"], capture_output=True, text=True, cwd=ROOT)
+    assert done.returncode == 0, done.stderr[-800:]
+    expected = expected_estimate(load_reference(reference))
+    stored = saved_values(blend, material)
+    assert {n: stored[n] for n in expected} == pytest.approx(expected, abs=1e-4)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--image", "{tmp}/none.png"], "no image at"),
+    (["--image", "{tmp}/empty.png"], "cannot read image"),
+    (["--image", "{tmp}/one.png"], "at least 8x8"),
+    (["--model", "{tmp}/truncated.onnx"], "cannot load"),
+    (["--model", "{tmp}/hair.onnx"], "not lipstick"),
+    (["--material", "Nope"], "no material 'Nope'"),
+    (["--material", "Plain"], "does not use the 'VTO Lipstick' node group"),
+    (["--crop", "1,2,3"], "--crop takes x,y,w,h"),
+    (["--refine", "render:5"], "--material takes the encoder's estimate only"),
+    (["--save", None], "add --save"),
+])
+def test_cli_bad_input_is_one_line_and_leaves_the_blend_byte_identical(argv, message, blend, material, reference,
+                                                                       odd_files):
+    args = {"--material": material, "--image": reference, "--blend": str(blend), "--save": ""}
+    args.update(zip(argv[::2], (a.replace("{tmp}", str(odd_files)) if a else a for a in argv[1::2])))
+    if args["--material"] == "Plain":
+        child = ("import bpy, sys; bpy.ops.wm.open_mainfile(filepath=sys.argv[1]); "
+                 "bpy.data.materials.new('Plain').use_fake_user = True; bpy.ops.wm.save_mainfile()")
+        subprocess.run([sys.executable, "-c", child, str(blend)], check=True, capture_output=True)
+    before = digest(blend)
+    flat = [x for key, value in args.items() if value is not None for x in ((key,) if value == "" else (key, value))]
+    done = vto(*flat)
+    assert done.returncode == 2
+    err = done.stderr.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("vto match: error: ") and message in err[0], done.stderr
+    assert digest(blend) == before and sorted(p.name for p in blend.parent.iterdir() if p.suffix == ".blend") == [
+        "scene.blend"]
+
+
+class FakeLayout:
+    """Records what a panel draws; checks every property it shows exists (draw code runs only in the UI otherwise)."""
+
+    def __init__(self, log):
+        self.log, self.enabled = log, True
+
+    def __getattr__(self, name):  # row(), column(), box(), ...
+        return lambda *args, **kwargs: FakeLayout(self.log)
+
+    def prop(self, data, name, **kwargs):
+        assert name in data.bl_rna.properties, name
+        self.log.append(("prop", name))
+
+    def prop_enum(self, data, name, value, **kwargs):
+        assert value in {item.identifier for item in data.bl_rna.properties[name].enum_items}
+        self.log.append(("enum", value, self.enabled))
+
+    def label(self, text="", **kwargs):
+        self.log.append(("label", text))
+
+    def operator(self, idname, **kwargs):
+        self.log.append(("operator", idname))
+        return SimpleNamespace()
+
+
+def test_the_panels_draw_every_control_and_the_last_estimate(material, reference):
+    log = []
+    context = SimpleNamespace(material=bpy.data.materials[material], preferences=bpy.context.preferences,
+                              scene=bpy.context.scene)
+    bpy.types.VTO_PT_match_material.draw(SimpleNamespace(layout=FakeLayout(log)), context)
+    shown = {entry[1] for entry in log if entry[0] == "prop"}
+    assert {"image_path", "use_crop", "mask_path", "model_path"} <= shown
+    assert ("enum", "FAST", True) in log and ("enum", "BETTER", False) in log and ("enum", "BEST", False) in log
+    assert any("no known source" in entry[1] for entry in log if entry[0] == "label")
+    assert ("operator", "vto.match_from_photo") in log
+    assert run_match(material=material, image_path=reference)[0] == {"FINISHED"}
+    log.clear()
+    bpy.types.VTO_PT_match_material.draw(SimpleNamespace(layout=FakeLayout(log)), context)
+    labels = [entry[1] for entry in log if entry[0] == "label"]
+    for name in SPEC.modelled:
+        param = LIPSTICK.by_name[name]
+        assert any(text.startswith(f"{param.socket}: ") and text.endswith(param.unit) for text in labels), name
+    log.clear()
+    hair_context = SimpleNamespace(scene=bpy.data.scenes.new("Empty Compositor"), preferences=bpy.context.preferences)
+    bpy.types.VTO_PT_match_hair.draw(SimpleNamespace(layout=FakeLayout(log)), hair_context)
+    assert ("operator", "vto.add_hair_compositor") in log
+
+
+def test_invoke_in_background_is_execute_and_refinement_reports_progress(material, reference, tmp_path):
+    assert bpy.ops.vto.match_from_photo("INVOKE_DEFAULT", material=material, image_path=reference) == {"FINISHED"}
+    expected = expected_estimate(load_reference(reference))
+    assert {n: inputs_of(material)[n] for n in expected} == pytest.approx(expected, abs=1e-4)
+    hair = get_spec("hair")
+    scene = bpy.data.scenes.new("Hair Progress")
+    apply.add_hair_compositor(scene)
+    write_image(tmp_path / "photo.png", gradient_image(16, 16), bits=16)
+    mask = np.zeros((16, 16), np.float32)
+    mask[4:] = 1.0
+    write_image(tmp_path / "mask.png", mask)
+    seen = []
+    result = apply.match_into_hair(scene, {"image_path": str(tmp_path / "photo.png"), "quality": "BETTER",
+                                           "mask_path": str(tmp_path / "mask.png"), "crop": None,
+                                           "model_path": tiny_encoder(tmp_path / "hair.onnx", hair)}, seen.append)
+    assert seen == list(range(1, 26))  # one update per render of Better's 25
+    assert hair.check_values(result["values"]) == pytest.approx(hair.full_values(result["values"]))
+
+
+def test_the_modal_refinement_writes_only_at_the_end_and_esc_changes_nothing(tmp_path, monkeypatch):
+    """The UI path: a few renders per timer tick, progress each render, the values written once, after the last."""
+    import blender_addon.operators as operators
+
+    hair = get_spec("hair")
+    scene = bpy.data.scenes.new("Hair Modal")
+    apply.add_hair_compositor(scene)
+    write_image(tmp_path / "photo.png", gradient_image(16, 16), bits=16)
+    mask = np.zeros((16, 16), np.float32)
+    mask[4:] = 1.0
+    write_image(tmp_path / "mask.png", mask)
+    settings = {"image_path": str(tmp_path / "photo.png"), "mask_path": str(tmp_path / "mask.png"),
+                "quality": "BETTER", "model_path": tiny_encoder(tmp_path / "hair.onnx", hair)}
+
+    class Modal:  # the operator's own methods on a stand-in (an operator cannot be made outside a running UI)
+        modal, stop, done, fail = (operators.VTO_OT_match_from_photo.__dict__[k] for k in ("modal", "stop", "done",
+                                                                                          "fail"))
+
+        def __init__(self):
+            self.reports, self._timer, self._stored = [], object(), scene.vto_hair_match
+            self._job = apply.MatchJob("hair", settings, scene=scene)
+            self._steps = self._job.steps()
+
+        def report(self, kind, text):
+            self.reports.append((set(kind), text))
+
+    progress, ended = [], []
+    manager = SimpleNamespace(progress_update=progress.append, progress_end=lambda: ended.append(True),
+                              event_timer_remove=lambda timer: None)
+    context = SimpleNamespace(window_manager=manager)
+    monkeypatch.setattr(operators, "TICK_SECONDS", 0.0)  # one render per tick
+    before = {s.name: s.default_value for n in apply.hair_nodes(scene) for s in n.inputs if s.name in
+              {p.socket for p in hair.params}}
+
+    def values():
+        return {s.name: s.default_value for n in apply.hair_nodes(scene) for s in n.inputs if s.name in before}
+
+    cancelled = Modal()
+    assert cancelled.modal(context, SimpleNamespace(type="TIMER")) == {"RUNNING_MODAL"} and progress == [1]
+    assert cancelled.modal(context, SimpleNamespace(type="MOUSEMOVE")) == {"PASS_THROUGH"}  # the UI keeps working
+    assert cancelled.modal(context, SimpleNamespace(type="ESC")) == {"CANCELLED"} and ended == [True]
+    assert values() == before and scene.vto_hair_match.last_estimate == ""
+    progress.clear()
+    running, ticks = Modal(), 0
+    while (state := running.modal(context, SimpleNamespace(type="TIMER"))) == {"RUNNING_MODAL"}:
+        ticks += 1
+        assert values() == before  # nothing written while it runs
+    assert state == {"FINISHED"} and ticks == 25 and progress == list(range(1, 26))
+    assert values() != before and json.loads(scene.vto_hair_match.last_estimate)["renderer"] == "hair"
+    assert running.reports[-1][0] == {"INFO"} and running.reports[-1][1].startswith("matched the compositor")
