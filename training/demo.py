@@ -220,7 +220,7 @@ def cmd_demo(argv: list[str]) -> int:
                                                          "imitator, encoder, ONNX export, evaluation, HTML report")
     parser.add_argument("--renderer", choices=["lipstick", "hair"], default="lipstick")
     parser.add_argument("--size", choices=list(SIZES), default="full",
-                        help="full: about 16 minutes on 2 CPU cores; small: about 4; smoke: under 2 (CI)")
+                        help="full: about 18 minutes on 2 CPU cores; small: about 4; smoke: under 2 (CI)")
     parser.add_argument("--out", default="out/demo", help="working folder; a rerun reuses its finished stages")
     args = parser.parse_args(argv)
     out = Path(args.out)
