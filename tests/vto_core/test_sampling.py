@@ -144,6 +144,27 @@ def test_truncated_standard_normal_is_scipys_inverse_cdf_even_1300_sigma_out():
         assert all(np.isfinite(truncated_standard_normal(u, low, high)) for u in (0.0, 0.5, 1 - 1e-16))
 
 
+def test_far_tails_match_scipy_without_importing_it():
+    """Beyond 37 sigma the log CDF and its inverse are pure Python (Blender's Python has no scipy)."""
+    import subprocess
+    import sys
+
+    from scipy.special import log_ndtr, ndtri_exp
+
+    from vto_core.sampling import _log_phi, _phi_inverse_of_log
+
+    for x in -np.logspace(np.log10(37.0), 6, 60):
+        assert abs(_log_phi(float(x)) - log_ndtr(x)) <= 1e-13 * abs(log_ndtr(x)), x
+    for log_p in -np.logspace(np.log10(690.0), 12, 60):
+        assert abs(_phi_inverse_of_log(float(log_p)) - ndtri_exp(log_p)) <= 1e-11 * abs(ndtri_exp(log_p)), log_p
+    blocked = ("import sys; sys.modules['scipy'] = None\n"
+               "from vto_core.sampling import truncated_standard_normal as t\n"
+               "print(t(0.5, -1301, -1300), t(0.5, 1300, 1301))")
+    done = subprocess.run([sys.executable, "-c", blocked], capture_output=True, text=True, check=True)
+    low, high = map(float, done.stdout.split())
+    assert -1301 <= low <= -1300 and 1300 <= high <= 1301
+
+
 def test_one_dimensional_draws_follow_scipys_truncnorm():
     mean, sd = 0.9, 0.3  # truncation removes 37 % of the mass, most of it above 1
     normal = PresetNormal(np.array([mean]), np.array([[sd]]), np.array([False]))
