@@ -75,13 +75,21 @@ def shard_range(n: int, shard: tuple[int, int]) -> range:
 
 
 def write_manifest(root: Path, manifest: dict) -> None:
-    """Write DIR/manifest.json atomically, or check that an existing one holds the same settings."""
+    """Write DIR/manifest.json atomically, or check that an existing one holds the same settings.
+
+    A larger n grows the dataset: sample i is a function of (seed, i) alone, so the finished samples stay valid.
+    """
     root = Path(root)
     path = root / "manifest.json"
     if path.exists():
         existing = read_manifest(root)
-        if existing != manifest:
-            changed = sorted(k for k in set(existing) | set(manifest) if existing.get(k) != manifest.get(k))
+        changed = sorted(k for k in set(existing) | set(manifest) if existing.get(k) != manifest.get(k))
+        if changed == ["n"] and manifest["n"] > existing["n"]:
+            write_text_atomic(path, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+            return
+        if changed == ["n"]:
+            raise VtoError(f"{root} already holds a dataset of {existing['n']} samples; --n can grow it, not shrink it")
+        if changed:
             raise VtoError(f"{root} holds a dataset made with other settings ({', '.join(changed)}); use a new --out")
         return
     write_text_atomic(path, json.dumps(manifest, indent=1, sort_keys=True) + "\n")

@@ -139,6 +139,19 @@ def test_changed_settings_in_an_existing_folder_are_refused(tmp_path):
         cmd_dataset(["lipstick", "--out", str(tmp_path / "m"), "--n", "2", *TINY[:-1], "--res", "24"])
 
 
+def test_a_larger_n_grows_the_dataset_and_a_smaller_one_is_refused(tmp_path):
+    make(tmp_path / "grown", 2)
+    before = tree_hashes(tmp_path / "grown")
+    make(tmp_path / "grown", 3)
+    make(tmp_path / "whole", 3)
+    grown = tree_hashes(tmp_path / "grown")
+    assert all(grown[k] == v for k, v in before.items() if k != "manifest.json")  # finished samples untouched
+    assert grown == tree_hashes(tmp_path / "whole")
+    with pytest.raises(VtoError, match="not shrink"):
+        make(tmp_path / "grown", 2)
+    assert json.loads((tmp_path / "grown" / "manifest.json").read_text())["n"] == 3
+
+
 def test_scheduler_environment_selects_the_shard():
     assert shard_from_env({"SLURM_ARRAY_TASK_ID": "2", "SLURM_ARRAY_TASK_COUNT": "4"}) == (2, 4)
     assert shard_from_env({"SLURM_ARRAY_TASK_ID": "3", "SLURM_ARRAY_TASK_COUNT": "3", "SLURM_ARRAY_TASK_MIN": "1"}) == (2, 3)
