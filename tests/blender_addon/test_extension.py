@@ -43,6 +43,30 @@ report["render"] = addon.run_cli(["render", "hair", "--params", '{"hue": 0.5}', 
 model = str(__import__("pathlib").Path(addon.__file__).parent / "models" / "hair_encoder.onnx")
 report["match"] = addon.run_cli(["match", "--model", model, "--image", out, "--out-params", params,
                                  "--source", "0", "--refine", "render:3", "--samples", "2"])
+# The operators, the panel's Match with the shipped model, and batch, all from the installed copy.
+lips_png, folder = params.replace(".json", "_lips.png"), params.replace(".json", "_photos")
+report["render_lips"] = addon.run_cli(["render", "lipstick", "--params", "preset:Classic Red", "--res", "64",
+                                       "--samples", "2", "--out", lips_png])
+mesh = bpy.data.meshes.new("Lips")
+mesh.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0)], [], [(0, 1, 2)])
+bpy.context.scene.collection.objects.link(bpy.data.objects.new("Lips", mesh))
+bpy.context.view_layer.objects.active = bpy.data.objects["Lips"]
+report["add_material"] = sorted(bpy.ops.vto.add_lipstick_material())
+report["add_hair"] = sorted(bpy.ops.vto.add_hair_compositor())
+material = bpy.data.objects["Lips"].active_material
+report["match_op"] = sorted(bpy.ops.vto.match_from_photo(material=material.name, image_path=lips_png))
+(group,) = [n for n in material.node_tree.nodes if getattr(n, "node_tree", None) and n.node_tree.name == "VTO Lipstick"]
+report["written"] = {s.name: s.default_value for s in group.inputs if s.type == "VALUE"}
+report["hair_groups"] = sorted(n.node_tree.name for n in bpy.context.scene.node_tree.nodes
+                               if getattr(n, "node_tree", None))
+import os, shutil
+os.makedirs(folder)
+shutil.copy(lips_png, os.path.join(folder, "red_1.png"))
+shutil.copy(lips_png, os.path.join(folder, "red_2.png"))
+open(os.path.join(folder, "broken_1.png"), "wb").write(b"not an image")
+lip_model = str(__import__("pathlib").Path(addon.__file__).parent / "models" / "lipstick_encoder.onnx")
+report["batch"] = addon.run_cli(["batch", "--model", lip_model, "--images", folder, "--out", folder + "_out",
+                                 "--group-by", "^([a-z]+)_", "--res", "16", "--samples", "1", "--quiet"])
 report["modules"] = {name: sys.modules[name].__file__ for name in ("vto_core.cli", "onnxruntime", "cma")}
 report["scipy"] = "scipy" in sys.modules
 report["commands"] = sorted(m for m in sys.modules if m.endswith((".commands", ".match")))
@@ -126,3 +150,22 @@ def test_extension_builds_installs_and_runs_the_cli(tmp_path):
     estimate = json.loads(params.read_text())
     assert estimate["renderer"] == "hair" and estimate["params"]
     assert all(np.isfinite(v) for v in estimate["params"].values())
+
+    # The operators and batch of the installed copy: the shipped lipstick model's estimate lands in the group.
+    assert report["render_lips"] == 0 and report["add_material"] == ["FINISHED"] == report["match_op"]
+    assert report["add_hair"] == ["FINISHED"] and report["hair_groups"] == ["VTO Hair Color", "VTO Hair Swatch"]
+    from vto_core.inference import EncoderSession
+    from vto_core.specs import get_spec
+
+    lips, _ = read_image(tmp_path / "hair_lips.png")
+    expected = EncoderSession(str(installed / "models" / "lipstick_encoder.onnx")).predict(lips)[0]
+    spec = get_spec("lipstick")
+    for name in spec.modelled:
+        written = report["written"][spec.by_name[name].socket]
+        assert written == pytest.approx(expected[name], rel=1e-4, abs=1e-4), name
+    assert report["batch"] == 0
+    batch = json.loads((tmp_path / "hair_photos_out" / "report.json").read_text())
+    assert [p["name"] for p in json.loads((tmp_path / "hair_photos_out" / "presets.json").read_text())["presets"]] \
+        == ["red"]
+    assert batch["estimated"] == 2 and len(batch["skipped"]) == 1 and "broken_1.png" in json.dumps(batch["skipped"])
+    assert (tmp_path / "hair_photos_out" / "assets.blend").is_file()
