@@ -66,6 +66,8 @@ class EncoderConfig(CommonConfig):
     width: int = 32
     n_layers: int = 4
     pool_size: int = 4  # spatial size before the linear head (1 = global average pooling)
+    blocks: int = 0  # extra 3x3 convolutions per level
+    batch_norm: bool = False
     lambda_rendering: float = 20.0
     loss: str = "both"  # ablation: graphics | rendering | both
     augment: bool = False  # mirrored and shifted views of each render (training/data.augment)
@@ -148,7 +150,7 @@ def validate(config) -> None:
     """Ranges that would otherwise fail deep inside a run (or silently do nothing)."""
     minimums = {"steps": 1, "batch_size": 1, "log_every": 1, "checkpoint_every": 1, "epochs": 0, "warmup_steps": 0,
                 "num_workers": 0, "critic_steps": 1, "width": 1, "critic_width": 1, "critic_layers": 1,
-                "n_layers": 1, "pool_size": 1, "n_down": 0, "n_res": 0}
+                "n_layers": 1, "pool_size": 1, "blocks": 0, "n_down": 0, "n_res": 0}
     for name, minimum in minimums.items():
         if hasattr(config, name) and getattr(config, name) < minimum:
             raise VtoError(f"{name} must be at least {minimum}, got {getattr(config, name)}")

@@ -162,21 +162,34 @@ class Critic(nn.Module):
 
 
 class Encoder(nn.Module):
-    """Inverse-graphics encoder E: img (B, C, H, W) in [0,1] -> normalised parameters (B, m)."""
+    """Inverse-graphics encoder E: img (B, C, H, W) in [0,1] -> normalised parameters (B, m).
 
-    def __init__(self, n_params, width=32, n_layers=4, image_channels=3, pool_size=4):
+    Each of the n_layers levels is a stride-2 4x4 convolution followed by `blocks` 3x3 convolutions at the same size;
+    batch_norm=1 puts a BatchNorm after every convolution (folded into it on export).
+    """
+
+    def __init__(self, n_params, width=32, n_layers=4, image_channels=3, pool_size=4, blocks=0, batch_norm=0):
         super().__init__()
-        self.model_args = _model_args("Encoder", n_params=n_params, width=width, n_layers=n_layers,
-                                      image_channels=image_channels, pool_size=pool_size)
-        n_params, width, n_layers, image_channels, pool_size = self.model_args.values()
+        self.model_args = _model_args("Encoder", {"blocks": 0, "batch_norm": 0}, n_params=n_params, width=width,
+                                      n_layers=n_layers, image_channels=image_channels, pool_size=pool_size,
+                                      blocks=blocks, batch_norm=batch_norm)
+        n_params, width, n_layers, image_channels, pool_size, blocks, batch_norm = self.model_args.values()
+        if batch_norm > 1:
+            raise VtoError(f"Encoder: batch_norm must be 0 or 1, got {batch_norm}")
         self.n_layers = n_layers
         self.image_channels = image_channels
+
+        def stage(channels_in, channels_out, kernel, stride, padding):
+            conv = nn.Conv2d(channels_in, channels_out, kernel, stride=stride, padding=padding, bias=not batch_norm)
+            return [conv, nn.BatchNorm2d(channels_out), nn.ReLU()] if batch_norm else [conv, nn.ReLU()]
 
         layers = []
         channels = image_channels
         for level in range(n_layers):
             out_channels = _down_channels(width, level)
-            layers += [nn.Conv2d(channels, out_channels, 4, stride=2, padding=1), nn.ReLU()]
+            layers += stage(channels, out_channels, 4, 2, 1)
+            for _ in range(blocks):
+                layers += stage(out_channels, out_channels, 3, 1, 1)
             channels = out_channels
         # Plain ops only, so the network exports to ONNX; the pool's output size should divide
         # the final feature map (image size / 2**n_layers) for the export to be a plain average.

@@ -106,7 +106,8 @@ def _train_encoder(reader: DatasetReader, data: str, imitator_run: str | None, o
 
     # 2. Encoder, perceptual distance, optimiser; resume (weights, optimiser and the data order).
     perceptual = PerceptualDistance(config.perceptual, config.vgg_weights or None).to(device) if use_rendering else None
-    encoder = Encoder(reader.spec.size, config.width, config.n_layers, pool_size=config.pool_size).to(device)
+    encoder = Encoder(reader.spec.size, config.width, config.n_layers, pool_size=config.pool_size, blocks=config.blocks,
+                      batch_norm=int(config.batch_norm)).to(device)
     optimiser = torch.optim.Adam(encoder.parameters(), lr=config.lr, betas=(config.beta1, config.beta2))
     global_batch = per_process_batch(config.batch_size, len(train_set), procs.world_size) * procs.world_size
     step, position = 0, 0

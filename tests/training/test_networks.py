@@ -138,6 +138,20 @@ def test_encoder_uses_only_exportable_layers():
     assert encoder.body[-1].in_features == 8 * 2 * 2
 
 
+def test_encoder_blocks_and_batch_norm_add_same_size_stages():
+    plain = Encoder(n_params=3, width=4, n_layers=2, pool_size=2)
+    deep = Encoder(n_params=3, width=4, n_layers=2, pool_size=2, blocks=2, batch_norm=1)
+    convs = [m for m in deep.modules() if isinstance(m, torch.nn.Conv2d)]
+    assert len(convs) == 2 * 3 and sum(isinstance(m, torch.nn.BatchNorm2d) for m in deep.modules()) == 6
+    assert all(c.bias is None for c in convs) and all(c.bias is not None for c in plain.modules()
+                                                      if isinstance(c, torch.nn.Conv2d))
+    assert deep(_images(2, 16)).shape == (2, 3)
+    with pytest.raises(VtoError, match="batch_norm must be 0 or 1"):
+        Encoder(n_params=3, batch_norm=2)
+    with pytest.raises(VtoError, match="blocks"):
+        Encoder(n_params=3, blocks=-1)
+
+
 def test_encoder_refuses_wrong_channels_and_tiny_images():
     encoder = Encoder(n_params=3, width=4, n_layers=4)
     with pytest.raises(VtoError, match=r"\(B, 3, H, W\)"):
@@ -152,6 +166,7 @@ def test_encoder_refuses_wrong_channels_and_tiny_images():
         ("imitator", Imitator, dict(n_params=3, width=4, n_down=2, n_res=1), (_images(2, 16), _params(2, 3))),
         ("critic", Critic, dict(width=4, n_layers=3), (_images(2, 16),)),
         ("encoder", Encoder, dict(n_params=3, width=4, n_layers=2, pool_size=2), (_images(2, 16),)),
+        ("encoder", Encoder, dict(n_params=3, width=4, n_layers=2, blocks=1, batch_norm=1), (_images(2, 16),)),
     ],
 )
 def test_build_round_trips_model_args(kind, network_class, model_args, inputs):
@@ -170,7 +185,7 @@ def test_model_args_hold_the_defaults_too():
     assert Imitator(n_params=4).model_args == dict(n_params=4, width=64, n_down=2, n_res=6, image_channels=3)
     assert Critic().model_args == dict(width=64, n_layers=4, image_channels=3)
     assert Encoder(n_params=4).model_args == dict(
-        n_params=4, width=32, n_layers=4, image_channels=3, pool_size=4
+        n_params=4, width=32, n_layers=4, image_channels=3, pool_size=4, blocks=0, batch_norm=0
     )
 
 

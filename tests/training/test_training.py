@@ -115,6 +115,16 @@ def test_encoder_with_rendering_loss_trains_through_the_imitator(lipstick_datase
     assert not (tmp_path / "none").exists()
 
 
+def test_a_batch_norm_encoder_trains_and_exports_with_its_running_statistics(lipstick_dataset, tmp_path):
+    config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=5", "loss=graphics", "blocks=1",
+                                                                 "batch_norm=true"])
+    run = train_encoder(str(lipstick_dataset), None, str(tmp_path / "bn"), config)
+    state = run.load_checkpoint()
+    assert state["model_args"]["blocks"] == 1 and state["model_args"]["batch_norm"] == 1
+    assert any(k.endswith("running_var") and not torch.all(v == 1) for k, v in state["model"].items())
+    assert export_encoder(str(run.path), str(tmp_path / "bn.onnx"))["max_abs_diff"] <= 1e-4
+
+
 def test_export_matches_torch_and_refuses_another_spec(lipstick_dataset, tmp_path):
     config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=5", "loss=graphics"])
     run = train_encoder(str(lipstick_dataset), None, str(tmp_path / "encoder"), config)
