@@ -61,7 +61,7 @@ def train(data: str, runs: Path, device: str, imitator_steps: int, encoder_steps
 
 def evaluate(runs: Path, n: int, res: int, samples: int) -> None:
     """Every encoder on the same references; the table into benchmarks/results/ablation.md."""
-    from training.evaluate import EvalSettings, run_eval
+    from pipeline.evaluate import EvalSettings, run_eval
     from vto_core.inference import EncoderSession
 
     record = json.loads((runs / "ablation.json").read_text())

@@ -39,7 +39,7 @@ def measure(cold_runs: int, warm_runs: int, encoder_runs: int) -> tuple[list[lis
 
     import blender_addon
     from blender_addon import apply
-    from blender_addon.match import load_reference
+    from blender_addon.reference import load_reference
     from vto_core import inference
     from vto_core.imageio import resize, write_image
 

@@ -29,7 +29,7 @@ def pareto(points: list[tuple[float, float, str]]) -> list[tuple[float, float, s
 def run(model: str, imitator: str | None, n: int, res: int, samples: int, seed: int, steps: list[int],
         budgets: list[int], from_mean: list[int], results: Path) -> Path:
     """One eval with every method; the table and the plot land in `results`; returns the table's path."""
-    from training.evaluate import EvalSettings, run_eval
+    from pipeline.evaluate import EvalSettings, run_eval
 
     refine = ([f"imitator:{k}" for k in steps] if imitator else []) + [f"render:{b}" for b in budgets]
     settings = EvalSettings(n, res, samples, seed, tuple(refine), tuple(from_mean), imitator)

@@ -1,4 +1,8 @@
-"""Match from photo (Kips et al. 2022) for Blender: registration only; the work lives in the modules."""
+"""Match from photo (Kips et al. 2022) for Blender: registration only; the work lives in the modules.
+
+The renderer layer: bpy, vto_core and onnxruntime; it imports no torch, no training and no pipeline, which the
+extension does not ship (tests/test_layers.py).
+"""
 
 # Installed as an extension, vto_core and onnxruntime come as wheels listed in blender_manifest.toml (Blender installs
 # them into its extensions' site-packages); a pip install of the repository has them already. No sys.path edits here.

@@ -17,8 +17,6 @@ all feed the same function:
 
 from __future__ import annotations
 
-import math
-import os
 import time
 import warnings
 from collections.abc import Callable
@@ -27,17 +25,16 @@ from pathlib import Path
 import numpy as np
 
 from vto_core.errors import VtoError
-from vto_core.imageio import read_image, resize
+from vto_core.imageio import resize
 from vto_core.inference import EncoderSession, cached_session
 from vto_core.specs import RendererSpec, get_spec
 
-from .match import load_reference
+from .reference import absolute_path, read_reference
 
 MODELS = Path(__file__).parent / "models"
 QUALITY_BUDGET = {"FAST": 0, "BETTER": 25, "BEST": 100}  # renders of the render search (blender_addon.refine)
 NO_LIPSTICK_SOURCE = ("Better and Best refine by rendering the reference's own source; a photo of a real face has "
                       "none, so only Fast (the encoder's estimate) applies to lipstick")
-MIN_SIZE = 8
 
 
 def default_model(renderer: str) -> Path:
@@ -49,17 +46,8 @@ def resolve_model(renderer: str, override: str = "", preference: str = "") -> Pa
     """The model to use: a per-material/per-call override, else the preferences' path, else the shipped one."""
     chosen = override or preference
     if chosen:
-        return Path(_abspath(chosen))
+        return Path(absolute_path(chosen))
     return default_model(renderer)
-
-
-def _abspath(path: str) -> str:
-    """A Blender-relative path ('//x') made absolute against the open .blend; others as they are."""
-    if path.startswith("//"):
-        import bpy
-
-        return bpy.path.abspath(path)
-    return os.path.expanduser(path)
 
 
 def check_model(session: EncoderSession, renderer: str, path) -> RendererSpec:
@@ -87,95 +75,6 @@ def load_model(renderer: str, model_path) -> tuple[EncoderSession, RendererSpec]
     return session, check_model(session, renderer, model_path)
 
 
-# --- the reference ------------------------------------------------------------------------------------------------
-
-def datablock_pixels(image) -> np.ndarray:
-    """A bpy image datablock as display values (H, W, 3), top row first.
-
-    Read from its file when it has an unmodified one on disk (as a file reference would be); else from its pixels:
-    byte images hold display values already, float images scene-linear ones (converted to sRGB).
-    """
-    path = _abspath(image.filepath_raw) if image.filepath_raw else ""
-    if path and os.path.isfile(path) and image.packed_file is None and not image.is_dirty:
-        return load_reference(path)
-    width, height = image.size
-    channels = image.channels
-    if width * height == 0 or channels < 1:
-        raise VtoError(f"image '{image.name}' has no pixels (is its file missing?)")
-    flat = np.empty(width * height * channels, np.float32)
-    image.pixels.foreach_get(flat)
-    pixels = np.flipud(flat.reshape(height, width, channels))
-    rgb = np.repeat(pixels[..., :1], 3, axis=2) if channels < 3 else pixels[..., :3]
-    if image.is_float:
-        from vto_core.colour import linear_to_srgb
-
-        rgb = linear_to_srgb(np.clip(np.nan_to_num(rgb, nan=0.0), 0.0, None))
-    return _checked(np.ascontiguousarray(rgb, dtype=np.float32), f"image '{image.name}'")
-
-
-def _checked(image: np.ndarray, what: str) -> np.ndarray:
-    if image.shape[0] < MIN_SIZE or image.shape[1] < MIN_SIZE:
-        raise VtoError(f"{what}: image is {image.shape[1]}x{image.shape[0]}; at least {MIN_SIZE}x{MIN_SIZE} is needed")
-    return np.clip(np.nan_to_num(image, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
-
-
-def crop_box(crop, width: int, height: int) -> tuple[int, int, int, int]:
-    """(x, y, w, h) from the top-left, in pixels or (all four <= 1) fractions -> pixel box inside the image."""
-    values = [float(v) for v in crop]
-    if len(values) != 4 or not all(math.isfinite(v) for v in values):
-        raise VtoError(f"a crop is four finite numbers x, y, w, h, got {tuple(crop)}")
-    if all(0.0 <= v <= 1.0 for v in values):
-        values = [values[0] * width, values[1] * height, values[2] * width, values[3] * height]
-    x, y, w, h = (int(round(v)) for v in values)
-    if x < 0 or y < 0 or w < MIN_SIZE or h < MIN_SIZE or x + w > width or y + h > height:
-        raise VtoError(f"crop x={x}, y={y}, w={w}, h={h} px does not fit the {width}x{height} image with at least "
-                       f"{MIN_SIZE}x{MIN_SIZE} px inside it")
-    return x, y, w, h
-
-
-def read_mask(path: str, shape: tuple[int, int]) -> np.ndarray:
-    """A mask image (its mean over channels > 0.5 is the region) as (H, W) float32 0/1, resized to `shape`."""
-    path = _abspath(path)
-    if not os.path.isfile(path):
-        raise VtoError(f"no mask image at {path}")
-    rgb, _ = read_image(path)
-    mask = np.nan_to_num(rgb.mean(axis=-1), nan=0.0)
-    if mask.shape != shape:
-        mask = resize(mask, *shape)
-    mask = (mask > 0.5).astype(np.float32)
-    if not mask.any():
-        raise VtoError(f"mask {path} is empty: no pixel above 0.5")
-    return mask
-
-
-def read_reference(settings: dict) -> tuple[np.ndarray, np.ndarray | None]:
-    """The reference (H, W, 3) in [0, 1] after the crop, and its mask (H, W) or None; one-line errors."""
-    if settings.get("image_path"):
-        reference = load_reference(_abspath(settings["image_path"]))
-    elif settings.get("image_name"):
-        import bpy
-
-        image = bpy.data.images.get(settings["image_name"])
-        if image is None:
-            raise VtoError(f"no image '{settings['image_name']}' in this .blend")
-        reference = datablock_pixels(image)
-    else:
-        raise VtoError("no reference image: choose a file or an image of this .blend")
-    mask = read_mask(settings["mask_path"], reference.shape[:2]) if settings.get("mask_path") else None
-    crop = settings.get("crop")
-    if crop is not None:
-        x, y, w, h = crop_box(crop, reference.shape[1], reference.shape[0])
-    elif mask is not None and settings.get("crop_to_mask", True):
-        rows, cols = np.nonzero(mask)
-        y, x = rows.min(), cols.min()
-        h, w = max(rows.max() + 1 - y, MIN_SIZE), max(cols.max() + 1 - x, MIN_SIZE)
-        y, x = min(y, reference.shape[0] - h), min(x, reference.shape[1] - w)
-    else:
-        return reference, mask
-    reference = np.ascontiguousarray(reference[y:y + h, x:x + w])
-    return reference, None if mask is None else np.ascontiguousarray(mask[y:y + h, x:x + w])
-
-
 # --- the targets --------------------------------------------------------------------------------------------------
 
 def lipstick_nodes(material) -> list:
@@ -190,9 +89,10 @@ def lipstick_nodes(material) -> list:
 
 def hair_nodes(scene) -> list:
     """The "VTO Hair Swatch" / "VTO Hair Color" group nodes of `scene`'s compositor."""
+    from .compat import compositor_tree
     from .nodes_hair import COLOR_GROUP, SWATCH_GROUP
 
-    tree = getattr(scene, "node_tree", None) if scene is not None else None
+    tree = compositor_tree(scene)
     if tree is None:
         return []
     return [n for n in tree.nodes if n.bl_idname == "CompositorNodeGroup" and n.node_tree is not None
@@ -384,9 +284,22 @@ def match_into_hair(scene, settings: dict, progress: Callable[[int], None] | Non
 
 
 def describe(spec: RendererSpec, values: dict[str, float]) -> list[str]:
-    """One line per estimated value: 'Red: 183.2 8-bit sRGB' (name from the spec's socket, then its unit)."""
-    return [f"{spec.by_name[name].socket}: {value:.3g}" + (f" {spec.by_name[name].unit}" if spec.by_name[name].unit
-                                                           else "") for name, value in values.items()]
+    """One line per estimated value, as its group input shows it: 'Red: 200.677 8-bit sRGB' (unit from the spec)."""
+
+    def shown(value: float) -> str:
+        # What Blender draws for a float socket (precision 3, subtype NONE): the stored float32, 3 decimals, more for
+        # small values so 0.0004 is not "0.000" (UI_calc_float_precision, interface.cc).
+        value = float(np.float32(value))
+        precision, magnitude = 3, abs(value)
+        if 1e-7 < magnitude < 1e-3:
+            digits = f"{round(magnitude * 1e7):07d}"  # the first 7 decimals
+            first = next(i for i, d in enumerate(digits) if d != "0")
+            used = digits[first + 1:first + 4].rstrip("0")
+            precision = max(precision, min(first + 1 + len(used), 6))
+        return f"{value:.{precision}f}"
+
+    return [f"{spec.by_name[name].socket}: {shown(value)}" + (f" {spec.by_name[name].unit}" if spec.by_name[name].unit
+                                                             else "") for name, value in values.items()]
 
 
 # --- the starting points ------------------------------------------------------------------------------------------
@@ -397,7 +310,6 @@ LIPSTICK_MATERIAL = "VTO Lipstick"
 def add_lipstick_material(obj):
     """A new "VTO Lipstick" material on `obj` (a mesh): a Principled BSDF (the bare lips) -> the lipstick group ->
     Material Output, appended to its slots and made active. Returns the material."""
-    import bpy
 
     from .nodes_lipstick import lipstick_material
 
@@ -415,16 +327,16 @@ def add_hair_compositor(scene) -> list:
     stays 1, the whole hair). Returns the two group nodes."""
     import bpy
 
+    from .compat import composite_output, compositor_tree
     from .hair import SWATCH_PATH
     from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, swatch_group
 
-    scene.use_nodes = True
-    tree = scene.node_tree
+    tree = compositor_tree(scene, create=True)
     nodes, links = tree.nodes, tree.links
     def existing(idname: str):
         return next((n for n in nodes if n.bl_idname == idname), None) or nodes.new(idname)
 
-    render, composite = existing("CompositorNodeRLayers"), existing("CompositorNodeComposite")
+    render, output = existing("CompositorNodeRLayers"), composite_output(tree)
     swatch_image = nodes.new("CompositorNodeImage")
     swatch_image.name = swatch_image.label = "VTO Hair Swatch Image"
     swatch_image.image = bpy.data.images.load(str(SWATCH_PATH), check_existing=True)
@@ -442,37 +354,7 @@ def add_hair_compositor(scene) -> list:
     links.new(swatch_image.outputs["Image"], swatch.inputs["Image"])
     links.new(swatch.outputs[0], viewer.inputs[0])
     links.new(render.outputs["Image"], color.inputs["Image"])
-    links.new(color.outputs[0], composite.inputs["Image"])
-    mask_image.location, color.location, composite.location = (-400, -300), (0, 0), (300, 0)
+    links.new(color.outputs[0], output)
+    mask_image.location, color.location, output.node.location = (-400, -300), (0, 0), (300, 0)
     swatch_image.location, swatch.location, viewer.location = (-400, 300), (0, 300), (300, 300)
     return [swatch, color]
-
-
-def save_blend_atomic(path: str) -> str:
-    """Save the open file to `path` atomically: a temporary .blend in the same folder, then os.replace.
-
-    On any failure the temporary file is removed and `path` is left as it was.
-    """
-    import shutil
-
-    import bpy
-
-    path = os.path.abspath(path)
-    folder, name = os.path.split(path)
-    if not os.path.isdir(folder):
-        raise VtoError(f"cannot save {path}: no folder {folder}")
-    temporary = os.path.join(folder, f".{name}.vto-{os.getpid()}.tmp.blend")
-    try:
-        try:
-            done = bpy.ops.wm.save_as_mainfile(filepath=temporary, copy=True, check_existing=False)
-        except RuntimeError as exc:
-            raise VtoError(f"cannot save {path}: {str(exc).strip().splitlines()[0]}") from None
-        if "FINISHED" not in done or not os.path.isfile(temporary):
-            raise VtoError(f"cannot save {path}: Blender did not write the file")
-        if os.path.isfile(path):
-            shutil.copymode(path, temporary)
-        os.replace(temporary, path)
-    finally:
-        if os.path.exists(temporary):
-            os.remove(temporary)
-    return path

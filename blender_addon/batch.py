@@ -30,7 +30,8 @@ from vto_core.imageio import write_image
 from vto_core.inference import EncoderSession
 from vto_core.specs import ParamSpec, RendererSpec
 
-from .match import at_size, load_reference, photo_source
+from .match import photo_source
+from .reference import at_size, load_reference
 
 ESTIMATES = "estimates"
 CHUNK = 32  # photos per encoder call

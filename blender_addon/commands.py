@@ -101,7 +101,7 @@ def cmd_dataset(argv: list[str]) -> int:
     if args.workers < 1:
         raise VtoError(f"--workers must be at least 1, got {args.workers}")
     if args.blend:
-        from .scene_params import open_blend
+        from .blendfile import open_blend
 
         open_blend(args.blend)
     scene = _user_scene() if args.renderer == "lipstick" else None

@@ -1,9 +1,9 @@
 """`vto match`: a renderer's parameters from a reference image; the encoder's estimate, optionally refined.
 
 Layering: this module needs onnxruntime (the encoder) and, for refinement, bpy (the renderer); it never imports torch
-or `training` at module level, because the extension ships without them. `--refine render:B` (CMA-ES through the
-real renderer, blender_addon.refine) runs anywhere bpy does, inside Blender too; `--refine imitator:K` imports
-training.refine inside the function and, where torch is missing (inside Blender), says so in one line.
+or `training`, because the extension ships without them. `--refine render:B` (CMA-ES through the real renderer,
+blender_addon.refine) runs anywhere bpy does, inside Blender too. `--refine imitator:K` is the pipeline layer's
+(pipeline.match passes its refinement in as `imitator_refine`); without it, as inside Blender, it is one line.
 
 Refinement compares renders of the reference's own source with the reference, so it needs that source: a seed of
 the default scene (`--source SEED`), or for hair a photo with its `<name>_mask` beside it (the photo is its own
@@ -16,7 +16,6 @@ import json
 import os
 import sys
 import time
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -24,13 +23,15 @@ import numpy as np
 from vto_core.cli import ArgumentParser
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
-from vto_core.imageio import read_image, resize
 from vto_core.inference import EncoderSession
-from vto_core.specs import RendererSpec, get_spec
+from vto_core.specs import get_spec
 
+from .reference import at_size, load_reference
 from .refine import OBJECTIVES, SIGMA, SIGMA_FROM_MEAN, refine_by_render
 
 NO_SOURCE = "no source for the reference (--source): refinement skipped, the encoder's estimate stands"
+NO_IMITATOR = ("--refine imitator:K needs torch and the training package, which this Python lacks (e.g. inside "
+               "Blender); use --refine render:B, or run `vto match` where torch is")
 
 
 def parse_refine(text: str) -> tuple[str, int]:
@@ -89,57 +90,16 @@ def photo_source(image_path: Path) -> str | None:
     return str(image_path) if any(image_path.parent.glob(image_path.stem + "_mask.*")) else None
 
 
-def load_reference(image_path: str) -> np.ndarray:
-    """The reference image (H, W, 3), NaN-free and clipped to [0, 1]; one-line errors for what cannot serve.
-
-    A few NaN or infinite pixels (an EXR from a bad render) are read as 0 or 1 with a warning; all of them is an error.
-    """
-    if not os.path.isfile(image_path):
-        raise VtoError(f"no image at {image_path}")
-    reference, _ = read_image(image_path)
-    if reference.shape[0] < 8 or reference.shape[1] < 8:
-        raise VtoError(f"{image_path}: image is {reference.shape[1]}x{reference.shape[0]}; at least 8x8 is needed")
-    bad = int((~np.isfinite(reference)).any(axis=-1).sum())
-    if bad == reference.shape[0] * reference.shape[1]:
-        raise VtoError(f"{image_path}: every pixel is NaN or infinite; nothing to estimate from")
-    if bad:
-        warnings.warn(f"{image_path}: {bad} NaN or infinite pixel(s) read as 0 (NaN, -inf) or 1 (+inf)", stacklevel=2)
-    return np.clip(np.nan_to_num(reference, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
-
-
-def at_size(image: np.ndarray, height: int, width: int) -> np.ndarray:
-    """(H, W, 3) -> (height, width, 3), unchanged when it already fits."""
-    return image if image.shape[:2] == (height, width) else resize(image, height, width)
-
-
-def imitator_refiner(spec: RendererSpec, imitator_run: str):
-    """training.refine.ImitatorRefiner for `spec` (imported here: it needs torch, which Blender's Python lacks)."""
-    try:
-        from training.refine import ImitatorRefiner
-    except ImportError as exc:
-        raise VtoError(f"--refine imitator:K needs torch and the training package ({exc.name} cannot be imported "
-                       "here, e.g. inside Blender); use --refine render:B, or run `vto match` where torch is") from None
-    return ImitatorRefiner(imitator_run, spec)
-
-
-def imitator_inputs(refiner, renderer: str, source, reference: np.ndarray, samples: int, seed: int):
-    """(X, reference) at the imitator's size: X rendered (or loaded) there, the reference resized."""
-    height, width = refiner.image_size
-    if height != width:
-        raise VtoError(f"the imitator works on {height}x{width} images; the default scenes render square ones")
-    x = SourceRenderer(renderer, source, height, samples, seed).source_image()
-    return x, at_size(reference, height, width)
-
-
 def match(model: str, image_path: str, source=None, refine: str = "none", imitator: str | None = None,
           res: int | None = None, samples: int = DEFAULT_SAMPLES, seed: int = 0, objective: str = "mse",
-          start_at: str = "encoder") -> dict:
+          start_at: str = "encoder", imitator_refine=None) -> dict:
     """Estimate (and refine) the parameters of `image_path`.
 
     Returns {'renderer', 'params': all parameters (raw values), 'refined', 'note', 'encoder_ms'} and, when
     refined, 'method', 'refine_ms', 'loss_start', 'loss' and 'renders' or 'steps'. res: the render size of render
     search (default: the reference's own, which must then be square). start_at: refinement starts at the 'encoder'
-    estimate or the 'mean' preset.
+    estimate or the 'mean' preset. imitator_refine: (spec, imitator run, source, reference, start unit, steps, samples,
+    seed) -> a refinement with .unit, .loss, .start_loss, .steps; needed by imitator:K (pipeline.match gives it).
     """
     kind, amount = parse_refine(refine)
     if kind == "imitator" and not imitator:
@@ -187,20 +147,21 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
                                    SIGMA_FROM_MEAN if start_at == "mean" else SIGMA, held)
         result["renders"] = refined.renders
     else:
-        refiner = imitator_refiner(spec, imitator)
-        refined = refiner.refine(*imitator_inputs(refiner, spec.renderer, source, reference, samples, seed),
-                                 start_unit, amount)
+        if imitator_refine is None:
+            raise VtoError(NO_IMITATOR)
+        refined = imitator_refine(spec, imitator, source, reference, start_unit, amount, samples, seed)
         result["steps"] = refined.steps
     result.update(params=spec.values(spec.denormalise(refined.unit)), refined=True, method=refine,
                   refine_ms=1000 * (time.perf_counter() - started), loss_start=refined.start_loss, loss=refined.loss)
     return result
 
 
-def cmd_match(argv: list[str]) -> int:
+def cmd_match(argv: list[str], imitator_refine=None) -> int:
     """vto match --model M --image IMG [--source S] [--refine none|imitator:K|render:B] [--imitator RUN] --out-params F,
     or vto match --material NAME --image IMG [--model M] [--crop x,y,w,h] [--mask IMG] [--blend FILE] --save.
 
-    The same function serves `blender -b [FILE] -c vto match`; there imitator:K ends in one line (no torch).
+    The same function serves `blender -b [FILE] -c vto match`; there imitator:K ends in one line (no torch). The
+    console script runs it through pipeline.match, which passes `imitator_refine` (match's).
     With --material the estimate goes into that material's "VTO Lipstick" group inputs (blender_addon.apply, the
     operator's code) and --save writes the .blend atomically; on any error the file is left as it was.
     """
@@ -244,7 +205,7 @@ def cmd_match(argv: list[str]) -> int:
     if args.res is not None and not 8 <= args.res <= 4096 or not 1 <= args.samples <= 65536:
         raise VtoError(f"--res must be in [8, 4096] and --samples in [1, 65536], got {args.res} and {args.samples}")
     result = match(args.model, args.image, args.source, args.refine, args.imitator, args.res, args.samples, args.seed,
-                   args.objective, args.start)
+                   args.objective, args.start, imitator_refine)
     if result["note"]:
         print(f"vto match: {result['note']}", file=sys.stderr)
     temporary = out.with_name(out.name + ".tmp")
@@ -276,8 +237,8 @@ def match_material_cli(args, out: Path | None) -> int:
     crop = parse_crop(args.crop)
     import bpy
 
-    from .apply import match_into_material, save_blend_atomic
-    from .scene_params import open_blend
+    from .apply import match_into_material
+    from .blendfile import open_blend, save_blend_atomic
 
     open_blend(args.blend)
     blend = bpy.data.filepath

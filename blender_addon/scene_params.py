@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 
 import bpy
 
@@ -12,20 +11,9 @@ from vto_core.errors import VtoError
 from vto_core.specs import get_spec
 from vto_core.visibility import VISIBLE_RATIO, parameter_visibility, quartile_values
 
+from .blendfile import open_blend
 from .lipstick import (linked_inputs, makeup_nodes, material_name, render_lipstick, scene_values,
                        set_lipstick_values)
-
-
-def open_blend(path: str | None) -> None:
-    """Open `path` (a .blend) unless it is already the open file; with no path the open file must exist."""
-    if path is None:
-        if not bpy.data.filepath:
-            raise VtoError("give --blend FILE (or run inside Blender with a .blend open)")
-        return
-    if not os.path.isfile(path):
-        raise VtoError(f"no .blend at {path}")
-    if os.path.abspath(bpy.data.filepath or "") != os.path.abspath(path):
-        bpy.ops.wm.open_mainfile(filepath=path)
 
 
 def user_scene(material: str | None = None) -> bpy.types.Scene:

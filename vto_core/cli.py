@@ -13,6 +13,7 @@ from .errors import VtoError
 # command -> (module, function, one-line help). Modules load lazily so `vto spec`
 # needs neither bpy nor torch. Modules under ADDON_PACKAGE are the add-on's: run() looks them up in the
 # package its caller names (the extension's own package inside Blender, see blender_addon.run_cli).
+# The layers: vto_core (here) < blender_addon (bpy), training (torch) < pipeline (both); see README "Layout".
 ADDON_PACKAGE = "blender_addon"
 COMMANDS = {
     "spec": ("vto_core.cli", "cmd_spec", "print a renderer's (selected) parameter spec as JSON"),
@@ -24,13 +25,15 @@ COMMANDS = {
     "export": ("training.cli", "cmd_export", "export an encoder run to ONNX"),
     "scene-params": ("blender_addon.scene_params", "cmd_scene_params",
                      "list which lipstick group inputs visibly change a user's scene (needs bpy)"),
-    "match": ("blender_addon.match", "cmd_match", "estimate a renderer's parameters from a reference image"),
+    "match": ("pipeline.match", "cmd_match", "estimate a renderer's parameters from a reference image"),
     "batch": ("blender_addon.batch", "cmd_batch",
               "estimate a folder of product photos: median presets, an asset library, a contact sheet"),
-    "eval": ("training.cli", "cmd_eval", "the paper's transfer experiment on an exported encoder (needs bpy)"),
-    "demo": ("training.demo", "cmd_demo", "the whole pipeline on the default scene: data, imitator, encoder, ONNX, "
+    "eval": ("pipeline.cli", "cmd_eval", "the paper's transfer experiment on an exported encoder (needs bpy)"),
+    "demo": ("pipeline.demo", "cmd_demo", "the whole pipeline on the default scene: data, imitator, encoder, ONNX, "
                                           "evaluation, HTML report (needs bpy and torch)"),
 }
+# Pipeline commands the add-on serves itself inside Blender, where the pipeline and training layers are absent.
+IN_BLENDER = {"match": ("blender_addon.match", "cmd_match")}
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -121,9 +124,19 @@ def run(argv: list[str], addon_package: str = ADDON_PACKAGE) -> int:
         print(f"vto: error: unknown command '{name}'; choose from {', '.join(COMMANDS)}", file=sys.stderr)
         return 2
     module, function, _ = COMMANDS[name]
+    if addon_package != ADDON_PACKAGE and name in IN_BLENDER:
+        module, function = IN_BLENDER[name]
     warnings.simplefilter("default")
     try:
-        return getattr(importlib.import_module(command_module(module, addon_package)), function)(rest) or 0
+        found = importlib.import_module(command_module(module, addon_package))
+    except ModuleNotFoundError as exc:
+        missing = (exc.name or "?").split(".")[0]
+        print(f"vto {name}: error: needs the module '{missing}', which this Python cannot import (inside Blender "
+              "only the add-on's commands and match run; the others need the project's `vto` console script)",
+              file=sys.stderr)
+        return 2
+    try:
+        return getattr(found, function)(rest) or 0
     except VtoError as exc:
         print(f"vto {name}: error: {exc}", file=sys.stderr)
         return 2

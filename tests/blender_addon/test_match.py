@@ -157,6 +157,25 @@ def test_imitator_refinement_without_torch_is_one_clear_line(models, reference, 
     assert not out.exists()
 
 
+def test_inside_blender_match_is_the_addons_own_and_imitator_refinement_is_one_line(models, reference, tmp_path,
+                                                                                     capsys, monkeypatch):
+    """`blender -c vto match` runs the extension's own match command (no pipeline layer there), torch or not."""
+    import blender_addon
+    import blender_addon.match
+
+    encoder, imitator = models
+    monkeypatch.setitem(sys.modules, "bl_ext_vto", blender_addon)  # the extension's package name inside Blender
+    monkeypatch.setitem(sys.modules, "bl_ext_vto.match", blender_addon.match)
+    monkeypatch.setitem(sys.modules, "pipeline", None)  # not shipped in the extension
+    out = tmp_path / "params.json"
+    argv = ["match", "--model", encoder, "--image", reference, "--source", str(SOURCE), "--out-params", str(out)]
+    assert cli.run([*argv, "--refine", "imitator:2", "--imitator", imitator], addon_package="bl_ext_vto") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "needs torch" in err[0] and "render:B" in err[0] and not out.exists()
+    assert cli.run(argv, addon_package="bl_ext_vto") == 0
+    assert parse_params(str(out), "lipstick") == pytest.approx(EncoderSession(encoder).predict(read_image(reference)[0])[0])
+
+
 def test_a_hair_photo_with_its_mask_is_its_own_source(tmp_path):
     rows = np.linspace(0.1, 0.8, RES, dtype=np.float32)
     photo = np.stack([np.outer(rows, np.ones(RES)), np.full((RES, RES), 0.3), np.outer(np.ones(RES), rows)], -1)

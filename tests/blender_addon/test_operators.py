@@ -17,7 +17,7 @@ bpy = pytest.importorskip("bpy")
 
 import blender_addon  # noqa: E402
 from blender_addon import apply  # noqa: E402
-from blender_addon.match import load_reference  # noqa: E402
+from blender_addon.reference import load_reference  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import write_image  # noqa: E402
 from vto_core.inference import EncoderSession, cached_session  # noqa: E402
@@ -163,7 +163,7 @@ def test_add_hair_compositor_wires_both_groups_to_the_outputs():
     nodes = {n.node_tree.name: n for n in apply.hair_nodes(scene)}
     assert set(nodes) == {"VTO Hair Swatch", "VTO Hair Color"}
     color, swatch = nodes["VTO Hair Color"], nodes["VTO Hair Swatch"]
-    assert color.outputs[0].links[0].to_node.bl_idname == "CompositorNodeComposite"
+    assert color.outputs[0].links[0].to_node.bl_idname in ("CompositorNodeComposite", "NodeGroupOutput")
     assert color.inputs["Image"].links[0].from_node.bl_idname == "CompositorNodeRLayers"
     assert swatch.outputs[0].links[0].to_node.bl_idname == "CompositorNodeViewer"
     assert swatch.inputs["Image"].links[0].from_node.image.name == "hair_swatch.png"

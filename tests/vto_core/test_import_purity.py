@@ -42,3 +42,12 @@ def test_cli_spec_and_sample_output(capsys):
 def test_cli_help_lists_commands(argv, capsys):
     assert cli.run(argv) == 0
     assert "spec" in capsys.readouterr().out
+
+
+def test_a_command_whose_layer_is_missing_is_one_line(capsys, monkeypatch):
+    """Inside Blender the pipeline and training layers are absent: `vto eval` says what it needs, exit 2."""
+    monkeypatch.setitem(sys.modules, "pipeline", None)
+    monkeypatch.delitem(sys.modules, "pipeline.cli", raising=False)
+    assert cli.run(["eval", "--model", "m.onnx", "--out", "x"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "needs the module 'pipeline'" in err[0]

@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 
-from training.demo import Stages
+from pipeline.demo import Stages
 
 SMOKE_PARAMS = ("opacity", "red", "green", "blue")
 

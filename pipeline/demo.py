@@ -147,8 +147,8 @@ def run_demo(renderer: str, size_name: str, out: Path) -> Path:
     imitator_set = [*COMMON, *size.imitator, "use_sensitivity=true"]
 
     def train_imitator_stage():
-        from .config import ImitatorConfig, resolve_config
-        from .train_imitator import train_imitator
+        from training.config import ImitatorConfig, resolve_config
+        from training.train_imitator import train_imitator
 
         train_imitator(str(data_i), str(run_i), resolve_config(ImitatorConfig, None, imitator_set))
 
@@ -159,8 +159,8 @@ def run_demo(renderer: str, size_name: str, out: Path) -> Path:
     encoder_set = [*COMMON, *size.encoder, "loss=both"]
 
     def train_encoder_stage():
-        from .config import EncoderConfig, resolve_config
-        from .train_encoder import train_encoder
+        from training.config import EncoderConfig, resolve_config
+        from training.train_encoder import train_encoder
 
         train_encoder(str(data_e), str(run_i), str(run_e), resolve_config(EncoderConfig, None, encoder_set))
 
@@ -170,7 +170,7 @@ def run_demo(renderer: str, size_name: str, out: Path) -> Path:
 
     # 5. ONNX export (checked against torch).
     def export_stage():
-        from .export import export_encoder
+        from training.export import export_encoder
 
         export_encoder(str(run_e), str(model))
 

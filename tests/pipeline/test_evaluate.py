@@ -11,9 +11,9 @@ pytestmark = [pytest.mark.blender, pytest.mark.torch, pytest.mark.slow]
 pytest.importorskip("bpy")
 pytest.importorskip("torch")
 
-from training.cli import cmd_eval  # noqa: E402
+from pipeline.cli import cmd_eval  # noqa: E402
 from training.config import EncoderConfig, ImitatorConfig, resolve_config  # noqa: E402
-from training.evaluate import buckets, is_dark, parameter_errors, raw_errors  # noqa: E402
+from pipeline.evaluate import buckets, is_dark, parameter_errors, raw_errors  # noqa: E402
 from training.export import export_encoder  # noqa: E402
 from training.train_encoder import train_encoder  # noqa: E402
 from training.train_imitator import train_imitator  # noqa: E402

@@ -7,8 +7,8 @@ Baselines: the mean preset, and the nearest preset (every preset rendered on A, 
 what an artist does by hand). Methods: the encoder, and each refinement of its estimate asked for (imitator:K,
 render:B), plus render search from the mean preset.
 
-Layering: training uses the renderer only here, inside evaluation: blender_addon (bpy) is imported inside the
-functions that render, never at module level.
+Layering: this is the pipeline layer, above blender_addon (the renderer, bpy) and training (the imitator's
+refinement and the perceptual distance, torch); both are imported inside the functions that use them.
 """
 
 from __future__ import annotations
@@ -101,12 +101,12 @@ class PerceptualMeter:
     """The VGG16 perceptual distance of training.losses between two images, where weights exist (else None)."""
 
     def __init__(self):
-        from .losses import vgg16_weight_candidates
+        from training.losses import vgg16_weight_candidates
 
         self.looked_at = vgg16_weight_candidates()
         self.distance = None
         if any(path.is_file() for path in self.looked_at):
-            from .losses import PerceptualDistance
+            from training.losses import PerceptualDistance
 
             self.distance = PerceptualDistance("vgg")
 
@@ -176,8 +176,10 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
     """
     from tqdm import tqdm
 
-    from blender_addon.match import SourceRenderer, imitator_inputs, imitator_refiner
+    from blender_addon.match import SourceRenderer
     from blender_addon.refine import SIGMA_FROM_MEAN, refine_by_render
+
+    from .match import imitator_inputs, imitator_refiner
 
     check_settings(settings)
     session = EncoderSession(model)

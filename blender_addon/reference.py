@@ -1,0 +1,138 @@
+"""The reference image of a match: a file or an image datablock, checked, with an optional crop or mask.
+
+Shared by `vto match`, the panel's operator (apply.py) and `vto batch`; bpy is imported only for datablocks and
+Blender-relative ('//') paths.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+
+import numpy as np
+
+from vto_core.errors import VtoError
+from vto_core.imageio import read_image, resize
+
+MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that an estimate is made from
+
+
+def absolute_path(path: str) -> str:
+    """A Blender-relative path ('//x') made absolute against the open .blend; others as they are."""
+    if path.startswith("//"):
+        import bpy
+
+        return bpy.path.abspath(path)
+    return os.path.expanduser(path)
+
+
+def load_reference(image_path: str) -> np.ndarray:
+    """The reference image (H, W, 3), NaN-free and clipped to [0, 1]; one-line errors for what cannot serve.
+
+    A few NaN or infinite pixels (an EXR from a bad render) are read as 0 or 1 with a warning; all of them is an error.
+    """
+    if not os.path.isfile(image_path):
+        raise VtoError(f"no image at {image_path}")
+    reference, _ = read_image(image_path)
+    if reference.shape[0] < MIN_SIZE or reference.shape[1] < MIN_SIZE:
+        raise VtoError(f"{image_path}: image is {reference.shape[1]}x{reference.shape[0]}; at least {MIN_SIZE}x{MIN_SIZE} "
+                       "is needed")
+    bad = int((~np.isfinite(reference)).any(axis=-1).sum())
+    if bad == reference.shape[0] * reference.shape[1]:
+        raise VtoError(f"{image_path}: every pixel is NaN or infinite; nothing to estimate from")
+    if bad:
+        warnings.warn(f"{image_path}: {bad} NaN or infinite pixel(s) read as 0 (NaN, -inf) or 1 (+inf)", stacklevel=2)
+    return np.clip(np.nan_to_num(reference, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+
+
+def at_size(image: np.ndarray, height: int, width: int) -> np.ndarray:
+    """(H, W, 3) -> (height, width, 3), unchanged when it already fits."""
+    return image if image.shape[:2] == (height, width) else resize(image, height, width)
+
+
+def datablock_pixels(image) -> np.ndarray:
+    """A bpy image datablock as display values (H, W, 3), top row first.
+
+    Read from its file when it has an unmodified one on disk (as a file reference would be); else from its pixels:
+    byte images hold display values already, float images scene-linear ones (converted to sRGB).
+    """
+    path = absolute_path(image.filepath_raw) if image.filepath_raw else ""
+    if path and os.path.isfile(path) and image.packed_file is None and not image.is_dirty:
+        return load_reference(path)
+    width, height = image.size
+    channels = image.channels
+    if width * height == 0 or channels < 1:
+        raise VtoError(f"image '{image.name}' has no pixels (is its file missing?)")
+    flat = np.empty(width * height * channels, np.float32)
+    image.pixels.foreach_get(flat)
+    pixels = np.flipud(flat.reshape(height, width, channels))
+    rgb = np.repeat(pixels[..., :1], 3, axis=2) if channels < 3 else pixels[..., :3]
+    if image.is_float:
+        from vto_core.colour import linear_to_srgb
+
+        rgb = linear_to_srgb(np.clip(np.nan_to_num(rgb, nan=0.0), 0.0, None))
+    return _checked(np.ascontiguousarray(rgb, dtype=np.float32), f"image '{image.name}'")
+
+
+def _checked(image: np.ndarray, what: str) -> np.ndarray:
+    if image.shape[0] < MIN_SIZE or image.shape[1] < MIN_SIZE:
+        raise VtoError(f"{what}: image is {image.shape[1]}x{image.shape[0]}; at least {MIN_SIZE}x{MIN_SIZE} is needed")
+    return np.clip(np.nan_to_num(image, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+
+
+def crop_box(crop, width: int, height: int) -> tuple[int, int, int, int]:
+    """(x, y, w, h) from the top-left, in pixels or (all four <= 1) fractions -> pixel box inside the image."""
+    values = [float(v) for v in crop]
+    if len(values) != 4 or not all(math.isfinite(v) for v in values):
+        raise VtoError(f"a crop is four finite numbers x, y, w, h, got {tuple(crop)}")
+    if all(0.0 <= v <= 1.0 for v in values):
+        values = [values[0] * width, values[1] * height, values[2] * width, values[3] * height]
+    x, y, w, h = (int(round(v)) for v in values)
+    if x < 0 or y < 0 or w < MIN_SIZE or h < MIN_SIZE or x + w > width or y + h > height:
+        raise VtoError(f"crop x={x}, y={y}, w={w}, h={h} px does not fit the {width}x{height} image with at least "
+                       f"{MIN_SIZE}x{MIN_SIZE} px inside it")
+    return x, y, w, h
+
+
+def read_mask(path: str, shape: tuple[int, int]) -> np.ndarray:
+    """A mask image (its mean over channels > 0.5 is the region) as (H, W) float32 0/1, resized to `shape`."""
+    path = absolute_path(path)
+    if not os.path.isfile(path):
+        raise VtoError(f"no mask image at {path}")
+    rgb, _ = read_image(path)
+    mask = np.nan_to_num(rgb.mean(axis=-1), nan=0.0)
+    if mask.shape != shape:
+        mask = resize(mask, *shape)
+    mask = (mask > 0.5).astype(np.float32)
+    if not mask.any():
+        raise VtoError(f"mask {path} is empty: no pixel above 0.5")
+    return mask
+
+
+def read_reference(settings: dict) -> tuple[np.ndarray, np.ndarray | None]:
+    """The reference (H, W, 3) in [0, 1] after the crop, and its mask (H, W) or None; one-line errors."""
+    if settings.get("image_path"):
+        reference = load_reference(absolute_path(settings["image_path"]))
+    elif settings.get("image_name"):
+        import bpy
+
+        image = bpy.data.images.get(settings["image_name"])
+        if image is None:
+            raise VtoError(f"no image '{settings['image_name']}' in this .blend")
+        reference = datablock_pixels(image)
+    else:
+        raise VtoError("no reference image: choose a file or an image of this .blend")
+    mask = read_mask(settings["mask_path"], reference.shape[:2]) if settings.get("mask_path") else None
+    crop = settings.get("crop")
+    if crop is not None:
+        x, y, w, h = crop_box(crop, reference.shape[1], reference.shape[0])
+    elif mask is not None and settings.get("crop_to_mask", True):
+        rows, cols = np.nonzero(mask)
+        y, x = rows.min(), cols.min()
+        h, w = max(rows.max() + 1 - y, MIN_SIZE), max(cols.max() + 1 - x, MIN_SIZE)
+        y, x = min(y, reference.shape[0] - h), min(x, reference.shape[1] - w)
+    else:
+        return reference, mask
+    reference = np.ascontiguousarray(reference[y:y + h, x:x + w])
+    return reference, None if mask is None else np.ascontiguousarray(mask[y:y + h, x:x + w])
