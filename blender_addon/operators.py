@@ -125,7 +125,7 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
         for warning in job.warnings:
             self.report({"WARNING"}, warning)
         if stored is not None:
-            remember(stored, job.renderer, result["values"], result["model"])
+            remember(stored, job.renderer, result["values"], result["model"], result["seconds"])
         self.report({"INFO"}, f"matched {job.where} in {1000 * result['seconds']:.0f} ms: "
                               + ", ".join(apply.describe(result["spec"], result["values"])))
         return {"FINISHED"}

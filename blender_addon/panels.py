@@ -1,4 +1,5 @@
-"""The "Match from photo" panels: Material Properties (lipstick) and the Compositor sidebar (hair)."""
+"""The "Match from photo" panels: the top of Material Properties and the Shader Editor's sidebar (lipstick), the
+Compositor's sidebar (hair)."""
 
 from __future__ import annotations
 
@@ -9,61 +10,107 @@ import bpy
 
 from vto_core.specs import get_spec
 
-from . import apply
+from . import apply, thumbnail, warmup
 from .operators import VTO_OT_add_hair_compositor, VTO_OT_add_lipstick_material, VTO_OT_match_from_photo
 from .preferences import preference_model
 
+THUMBNAIL_SCALE = 6.0  # the reference's thumbnail: 6 icon rows high
 
-def draw_match(layout, context, props, renderer: str, target: str, material_name: str = "") -> None:
-    """The shared body: reference, crop / mask, model, quality, Match, and the last estimate."""
-    column = layout.column()
-    column.prop(props, "use_datablock")
-    column.prop(props, "image" if props.use_datablock else "image_path")
-    column.prop(props, "use_crop")
+
+def split_column(layout):
+    """A column in Blender's property-split style (labels right-aligned on the left, no animation dots)."""
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    return layout.column()
+
+
+def draw_reference(column, props, preview_name: str) -> None:
+    """Reference (a file or an image of the .blend), its thumbnail with the crop outlined, crop and mask."""
+    column.prop(props, "image" if props.use_datablock else "image_path", text="Reference")
+    column.prop(props, "use_datablock", text="Image in .blend")
+    icon_id, why = thumbnail.icon(props, preview_name)
+    if icon_id:
+        column.template_icon(icon_value=icon_id, scale=THUMBNAIL_SCALE)
+    elif why and why != "no image chosen":
+        column.label(text=why, icon="ERROR")
+    column.prop(props, "use_crop", text="Part of the Image")
     if props.use_crop:
-        column.prop(props, "crop", text="")
-    column.prop(props, "mask_path")
-    column.prop(props, "model_path", text="Model Override")
-    model = apply.resolve_model(renderer, props.model_path, preference_model(context, renderer))
-    column.label(text=f"Model: {model.name}" + ("" if model.is_file() else " (missing)"), icon="FILE")
+        box = column.column(align=True)
+        for index, name in enumerate(("X", "Y", "Width", "Height")):
+            box.prop(props, "crop", index=index, text=name)
+    column.prop(props, "mask_path", text="Mask")
 
-    column.label(text="Quality:")
-    row = column.row(align=True)
-    row.prop_enum(props, "quality", "FAST")
+
+def draw_quality(column, props, renderer: str) -> None:
+    """Fast / Better / Best, with the reason in plain words when Better and Best cannot run."""
     refinable = renderer == "hair"
+    split = column.split(factor=0.4)  # the label column of property split, which prop_enum does not follow
+    label = split.row()
+    label.alignment = "RIGHT"
+    label.label(text="Quality")
+    row = split.row(align=True)
+    row.use_property_split = False
+    row.prop_enum(props, "quality", "FAST")
     for value in ("BETTER", "BEST"):
         cell = row.row(align=True)
         cell.enabled = refinable
         cell.prop_enum(props, "quality", value)
     if not refinable:
-        column.label(text="Better / Best: a face photo has no known source to render", icon="INFO")
+        column.label(text="Better, Best: for hair photos only", icon="INFO")
     elif props.quality != "FAST" and not props.mask_path:
-        column.label(text="Better / Best need the hair mask of the photo", icon="ERROR")
+        column.label(text="Better, Best: choose the hair mask", icon="ERROR")
 
-    operator = column.operator(VTO_OT_match_from_photo.bl_idname, text="Match", icon="EYEDROPPER")
+
+def draw_estimate(layout, props) -> None:
+    """The last values written, as the group's inputs show them."""
+    try:
+        last = json.loads(props.last_estimate)
+        lines = apply.describe(get_spec(last["renderer"]), last["values"])
+    except (ValueError, KeyError, TypeError):
+        return
+    box = layout.box()
+    box.use_property_split = False
+    box.label(text=f"Written ({Path(last.get('model', '')).stem})", icon="CHECKMARK")
+    for line in lines:
+        box.label(text=line)
+
+
+def draw_match(layout, context, props, renderer: str, target: str, material_name: str = "") -> None:
+    """The shared body: reference, crop, mask, model, quality, Match, and the values last written."""
+    column = split_column(layout)
+    draw_reference(column, props, f"{target}:{material_name}")
+    model = apply.resolve_model(renderer, props.model_path, preference_model(context, renderer))
+    try:
+        column.prop(props, "model_path", text="Model", placeholder=f"{model.stem} (shipped)"
+                    if not (props.model_path or preference_model(context, renderer)) else model.stem)
+    except TypeError:  # no placeholder before Blender 4.1
+        column.prop(props, "model_path", text="Model")
+    problem = warmup.problem(model) if model.is_file() else f"no model file {model.name}"
+    if problem:
+        alert = column.column()
+        alert.alert = True
+        alert.label(text=problem, icon="ERROR")
+    else:
+        warmup.ensure(model)
+    draw_quality(column, props, renderer)
+
+    row = layout.row()
+    row.scale_y = 1.4
+    operator = row.operator(VTO_OT_match_from_photo.bl_idname, text="Match", icon="EYEDROPPER")
     operator.target = target
     if material_name:
         operator.material = material_name
-    if not refinable:
+    if renderer != "hair":
         operator.quality = "FAST"
-
     if props.last_estimate:
-        try:
-            last = json.loads(props.last_estimate)
-            lines = apply.describe(get_spec(last["renderer"]), last["values"])
-        except (ValueError, KeyError, TypeError):
-            return
-        box = layout.box()
-        box.label(text=f"Estimate ({Path(last.get('model', '')).name}):")
-        for line in lines:
-            box.label(text=line)
+        draw_estimate(layout, props)
 
 
-class VTO_PT_match_material(bpy.types.Panel):
-    """Match from photo for a material using the "VTO Lipstick" group"""
+class MaterialMatch:
+    """The Material Properties panel's body; a sub-panel of each engine's material-slots panel, so that it sits under
+    the slots, above Preview and the Surface inputs (bl_order cannot place an add-on panel above built-in ones)."""
 
     bl_label = "Match from photo"
-    bl_idname = "VTO_PT_match_material"
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "material"
@@ -72,8 +119,45 @@ class VTO_PT_match_material(bpy.types.Panel):
     def poll(cls, context):
         return bool(apply.lipstick_nodes(getattr(context, "material", None)))
 
+    def draw_header(self, context):
+        self.layout.label(icon="EYEDROPPER")
+
     def draw(self, context):
         material = context.material
+        draw_match(self.layout, context, material.vto_match, "lipstick", "MATERIAL", material.name)
+
+
+class VTO_PT_match_material(MaterialMatch, bpy.types.Panel):
+    """Match from photo for a material using the "VTO Lipstick" group (EEVEE, Workbench)"""
+
+    bl_idname = "VTO_PT_match_material"
+    bl_parent_id = "EEVEE_MATERIAL_PT_context_material"
+
+
+class VTO_PT_match_material_cycles(MaterialMatch, bpy.types.Panel):
+    """Match from photo for a material using the "VTO Lipstick" group (Cycles)"""
+
+    bl_idname = "VTO_PT_match_material_cycles"
+    bl_parent_id = "CYCLES_PT_context_material"
+
+
+class VTO_PT_match_shader(bpy.types.Panel):
+    """Match from photo in the Shader Editor's sidebar (VTO tab), for the material being edited"""
+
+    bl_label = "Match from photo"
+    bl_idname = "VTO_PT_match_shader"
+    bl_space_type = "NODE_EDITOR"
+    bl_region_type = "UI"
+    bl_category = "VTO"
+
+    @classmethod
+    def poll(cls, context):
+        space = getattr(context, "space_data", None)
+        return (getattr(space, "tree_type", "") == "ShaderNodeTree"
+                and bool(apply.lipstick_nodes(getattr(space, "id", None))))
+
+    def draw(self, context):
+        material = context.space_data.id
         draw_match(self.layout, context, material.vto_match, "lipstick", "MATERIAL", material.name)
 
 
@@ -120,14 +204,24 @@ class VTO_PT_add_lipstick(bpy.types.Panel):
         self.layout.operator(VTO_OT_add_lipstick_material.bl_idname, icon="MATERIAL")
 
 
-CLASSES = (VTO_PT_match_material, VTO_PT_match_hair, VTO_PT_add_lipstick)
+CLASSES = (VTO_PT_match_material, VTO_PT_match_material_cycles, VTO_PT_match_shader, VTO_PT_match_hair,
+           VTO_PT_add_lipstick)
+_registered: list = []
 
 
 def register() -> None:
+    """Register the panels; a sub-panel only where its parent (the engine's material-slots panel) exists."""
     for cls in CLASSES:
+        parent = getattr(cls, "bl_parent_id", "")
+        if parent and not hasattr(bpy.types, parent):
+            continue
         bpy.utils.register_class(cls)
+        _registered.append(cls)
 
 
 def unregister() -> None:
-    for cls in reversed(CLASSES):
+    for cls in reversed(_registered):
         bpy.utils.unregister_class(cls)
+    _registered.clear()
+    thumbnail.unregister()
+    warmup.unregister()

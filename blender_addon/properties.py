@@ -49,9 +49,9 @@ def settings_dict(props: VTO_PG_match_settings) -> dict:
     return settings
 
 
-def remember(props, renderer: str, values: dict[str, float], model: str) -> None:
-    """Store the values written, for the panel to show."""
-    props.last_estimate = json.dumps({"renderer": renderer, "values": values, "model": model})
+def remember(props, renderer: str, values: dict[str, float], model: str, seconds: float | None = None) -> None:
+    """Store the values written (and how long the match took), for the panel to show."""
+    props.last_estimate = json.dumps({"renderer": renderer, "values": values, "model": model, "seconds": seconds})
 
 
 def register() -> None:

@@ -4,9 +4,12 @@ The extension follows the platform's rules: no vendored folders, no sys.path edi
 wheels listed in the manifest (Blender installs them into its extensions' site-packages):
 
   * vto_core: built here from the repository (pure Python plus presets/*.json), version from pyproject.toml;
-  * onnxruntime (one wheel per declared platform) and the pure-Python cma and tqdm: the wheels the source manifest
-    names, taken from --wheels DIR when they are there, otherwise fetched with `pip download` now, at build time
-    (never when the add-on runs).
+  * onnxruntime (one wheel per declared platform and per Python Blender ships: cp311 for Blender 4.2-5.0, cp313 for
+    5.1+) and the pure-Python cma and tqdm: the wheels the source manifest names, taken from --wheels DIR when they
+    are there, otherwise fetched with `pip download` now, at build time (never when the add-on runs).
+
+One zip holds both Pythons' wheels: Blender's tool derives the zip's Python versions from the wheel names (3.11 and
+3.13), and Blender installs only the wheels of its own Python, so the same zip installs on 4.2-5.0 and on 5.1+.
 
 Writes only under --out (and into --wheels DIR, used as a download cache, when given). The built zip paths are the
 last lines printed.
@@ -33,6 +36,9 @@ ADDON = ROOT / "blender_addon"
 MANIFEST = "blender_manifest.toml"
 # Not shipped: byte code, tests, editor and OS leftovers.
 IGNORE = shutil.ignore_patterns("__pycache__", "*.pyc", "tests", ".DS_Store", "*.egg-info", "wheels")
+
+# The Pythons of the Blender releases the manifest allows: 4.2-5.0 run 3.11, 5.1 and later 3.13.
+PYTHON_TAGS = ("cp311", "cp313")
 
 # Blender platform -> the wheel platform tags that serve it (blender_ext.py maps macOS universal2 to both).
 WHEEL_PLATFORMS = {
@@ -162,8 +168,10 @@ def build(output_dir: Path, platforms: list[str] | None = None, wheels_dir: Path
         staged = [build_core_wheel(wheels).name]
         for blender_platform in platforms:
             serving = [w for w in listed if wheel_serves(w, blender_platform)]
-            if all(wheel_platform_tag(w) == "any" for w in serving):
-                sys.exit(f"build_extension: the manifest lists no onnxruntime wheel for {blender_platform}")
+            for python_tag in PYTHON_TAGS:
+                if not [w for w in serving if w.split("-")[2] == python_tag]:
+                    sys.exit(f"build_extension: the manifest lists no {python_tag} onnxruntime wheel for "
+                             f"{blender_platform}")
             for filename in serving:
                 if filename not in staged:
                     staged.append(fetch_wheel(filename, wheels, wheels_dir).name)

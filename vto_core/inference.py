@@ -15,12 +15,28 @@ INPUT_NAME = "image"
 OUTPUT_NAME = "params_unit"
 
 
+def import_onnxruntime():
+    """The onnxruntime module; a VtoError of one line that says what to do when it is missing or cannot load."""
+    try:
+        import onnxruntime
+    except ModuleNotFoundError as exc:
+        if exc.name != "onnxruntime":  # onnxruntime is there but one of its own imports is not: a broken install
+            raise VtoError(f"onnxruntime cannot load (no module {exc.name!r}): reinstall the Match from Photo "
+                           "extension from the zip for this platform, or pip install onnxruntime") from None
+        raise VtoError("onnxruntime is not installed for this Python: install the Match from Photo extension from "
+                       "the zip for this platform (it carries onnxruntime), or pip install onnxruntime") from None
+    except ImportError as exc:  # e.g. Windows: "DLL load failed" with an old Visual C++ runtime
+        first = (str(exc).splitlines() or [""])[0]
+        raise VtoError(f"onnxruntime cannot load ({first}): on Windows install the latest Microsoft Visual C++ "
+                       "Redistributable, then restart Blender") from None
+    return onnxruntime
+
+
 class EncoderSession:
     """An exported encoder: image(s) -> parameters in raw units; refuses a model made for another spec."""
 
     def __init__(self, path: str | Path, expected_spec: RendererSpec | None = None, threads: int = 2):
-        import onnxruntime as ort
-
+        ort = import_onnxruntime()
         path = Path(path)
         if not path.is_file():
             raise VtoError(f"no encoder model at {path}")

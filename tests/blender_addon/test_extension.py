@@ -21,7 +21,8 @@ pytestmark = [pytest.mark.blender, pytest.mark.slow]
 pytest.importorskip("bpy")
 
 ROOT = Path(__file__).resolve().parents[2]
-ONNXRUNTIME = "1.18.1"
+ONNXRUNTIME = "1.18.1"  # cp311: Blender 4.2-5.0
+ONNXRUNTIME_313 = "1.20.0"  # cp313: Blender 5.1+, the first onnxruntime with cp313 wheels
 # Blender's own Python ships these; the venv's other packages (its onnxruntime among them) stay out of sight.
 BLENDER_PYTHON_MODULES = ["bpy", "numpy", "numpy.libs", "OpenImageIO"]
 
@@ -80,6 +81,54 @@ def wheel_cache() -> Path:
     return Path(os.environ.get("VTO_WHEEL_CACHE") or base / "vto_match" / "wheels")
 
 
+def load_blender_ext():
+    """Blender's own extension tool (blender_ext.py from the bpy wheel) as a module."""
+    import bpy
+
+    path = Path(bpy.utils.system_resource("SCRIPTS")) / "addons_core" / "bl_pkg" / "cli" / "blender_ext.py"
+    spec = importlib.util.spec_from_file_location("blender_ext", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("blender_ext", module)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_platform_zip_carries_both_pythons_onnxruntime(tmp_path):
+    """--split-platforms: one zip per platform, each with a cp311 and a cp313 onnxruntime of that platform only."""
+    build = subprocess.run([sys.executable, str(ROOT / "scripts" / "build_extension.py"), "--out", str(tmp_path),
+                            "--split-platforms", "--wheels", str(wheel_cache())], capture_output=True, text=True)
+    assert build.returncode == 0, build.stdout[-800:] + build.stderr[-800:]
+    zips = [Path(line) for line in build.stdout.strip().splitlines()]
+    assert [z.name for z in zips] == [f"vto_match-0.1.0-{p}.zip" for p in
+                                      ("windows_x64", "linux_x64", "macos_arm64", "macos_x64")]
+    tags = {"windows_x64": "win_amd64", "linux_x64": "x86_64", "macos_arm64": "universal2", "macos_x64": "universal2"}
+    ext = load_blender_ext()
+    for package in zips:
+        with zipfile.ZipFile(package) as archive:
+            wheels = sorted(n.split("/")[-1] for n in archive.namelist() if n.startswith("wheels/onnxruntime-"))
+            manifest = archive.read("blender_manifest.toml").decode()
+        platform = package.stem.split("-")[-1]
+        assert [w.split("-")[1:3] for w in wheels] == [[ONNXRUNTIME, "cp311"], [ONNXRUNTIME_313, "cp313"]], wheels
+        assert all(w.removesuffix(".whl").endswith(tags[platform]) for w in wheels), (package.name, wheels)
+        assert f'platforms = ["{platform.replace("_", "-")}"]' in manifest
+        assert sorted(ext.python_versions_from_wheels(wheels)) == [(3, 11), (3, 13)]
+
+    # What Blender's install check says (the same function its Install from Disk calls), for the linux-x64 zip.
+    def verdict(python, blender):
+        messages = []
+        skip = ext.repository_filter_skip(
+            item={"platforms": ["linux-x64"], "python_versions": ["3.11", "3.13"], "blender_version_min": "4.2.0",
+                  "blender_version_max": "5.2.0"}, filter_blender_version=blender, filter_python_version=python,
+            filter_platform="linux-x64", skip_message_fn=messages.append, error_fn=messages.append)
+        return skip, messages
+
+    assert verdict((3, 11, 9), (4, 5, 3)) == (False, []) and verdict((3, 11, 13), (5, 0, 1)) == (False, [])
+    assert verdict((3, 13, 5), (4, 3, 2)) == (False, []) and verdict((3, 13, 9), (5, 1, 0)) == (False, [])
+    assert verdict((3, 12, 3), (4, 4, 0)) == (True, ["This Python version (3.12) isn't compatible with (3.11, 3.13)"])
+    skip, messages = verdict((3, 13, 9), (5, 2, 0))
+    assert skip and len(messages) == 1 and "5.2" in messages[0]
+
+
 def blender_python_site(folder: Path) -> Path:
     """A site folder holding links to the modules Blender's Python ships, taken from this venv."""
     folder.mkdir()
@@ -101,10 +150,15 @@ def test_extension_builds_installs_and_runs_the_cli(tmp_path):
         names = archive.namelist()
         manifest = archive.read("blender_manifest.toml").decode()
     wheels = sorted(n for n in names if n.startswith("wheels/"))
-    assert len(wheels) == 4, wheels
+    assert len(wheels) == 5, wheels
     assert wheels[0] == "wheels/cma-4.5.0-py3-none-any.whl"
     assert wheels[1].startswith(f"wheels/onnxruntime-{ONNXRUNTIME}-cp311-cp311-") and wheels[1].endswith(".whl")
-    assert wheels[2:] == ["wheels/tqdm-4.70.1-py3-none-any.whl", "wheels/vto_core-0.1.0-py3-none-any.whl"]
+    assert wheels[2].startswith(f"wheels/onnxruntime-{ONNXRUNTIME_313}-cp313-cp313-") and wheels[2].endswith(".whl")
+    assert wheels[3:] == ["wheels/tqdm-4.70.1-py3-none-any.whl", "wheels/vto_core-0.1.0-py3-none-any.whl"]
+    # Blender derives the zip's Python versions from the wheel names: both 3.11 and 3.13, so 4.2-5.0 and 5.1+ install it
+    ext = load_blender_ext()
+    assert sorted(ext.python_versions_from_wheels([w.split("/")[-1] for w in wheels])) == [(3, 11), (3, 13)]
+    assert 'blender_version_min = "4.2.0"' in manifest and 'blender_version_max = "5.2.0"' in manifest
     for wheel in wheels:
         assert f'"./{wheel}"' in manifest, f"{wheel} is not listed in the built manifest"
     assert not [n for n in names if "_vendor" in n or "__pycache__" in n or n.endswith(".pyc") or "tests/" in n]

@@ -547,7 +547,7 @@ def test_the_panels_draw_every_control_and_the_last_estimate(material, reference
     shown = {entry[1] for entry in log if entry[0] == "prop"}
     assert {"image_path", "use_crop", "mask_path", "model_path"} <= shown
     assert ("enum", "FAST", True) in log and ("enum", "BETTER", False) in log and ("enum", "BEST", False) in log
-    assert any("no known source" in entry[1] for entry in log if entry[0] == "label")
+    assert any("for hair photos only" in entry[1] for entry in log if entry[0] == "label")
     assert ("operator", "vto.match_from_photo") in log
     assert run_match(material=material, image_path=reference)[0] == {"FINISHED"}
     log.clear()

@@ -1,0 +1,102 @@
+"""The panel's thumbnail of the reference: the picture, the crop outlined, in a preview collection (no file written)."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .reference import absolute_path, crop_box, datablock_pixels, load_reference, read_mask
+
+SIZE = 128  # pixels of the square thumbnail
+CROP_COLOUR = (1.0, 0.78, 0.1)  # the crop's outline: Blender's selection orange-yellow
+MASK_DIM = 0.35  # outside the mask, the picture at this brightness
+
+_previews = None
+_made: dict[str, tuple] = {}  # preview name -> the settings it shows
+
+
+def source_key(props) -> tuple:
+    """What the thumbnail depends on: the reference (with its file's mtime), the crop and the mask."""
+    def stamp(path: str):
+        path = absolute_path(path) if path else ""
+        return (path, os.path.getmtime(path)) if path and os.path.isfile(path) else (path, None)
+
+    if props.use_datablock:
+        image = props.image
+        source = ("datablock", image.name if image else "", image.is_dirty if image else False)
+    else:
+        source = ("file",) + stamp(props.image_path)
+    return source, tuple(round(v, 4) for v in props.crop) if props.use_crop else None, stamp(props.mask_path)
+
+
+def compose(reference: np.ndarray, crop, mask: np.ndarray | None) -> np.ndarray:
+    """(SIZE, SIZE, 4) RGBA, top row first: the reference fitted and centred on grey, the mask dimmed, the crop drawn."""
+    from vto_core.imageio import resize
+
+    height, width = reference.shape[:2]
+    scale = SIZE / max(height, width)
+    h, w = max(1, round(height * scale)), max(1, round(width * scale))
+    picture = resize(reference, h, w) if (h, w) != (height, width) else reference
+    if mask is not None:
+        small = resize(mask[..., None].repeat(3, axis=2), h, w)[..., 0] if (h, w) != (height, width) else mask
+        picture = picture * np.where(small > 0.5, 1.0, MASK_DIM)[..., None]
+    canvas = np.full((SIZE, SIZE, 4), (0.16, 0.16, 0.16, 1.0), np.float32)
+    top, left = (SIZE - h) // 2, (SIZE - w) // 2
+    canvas[top:top + h, left:left + w, :3] = np.clip(picture, 0.0, 1.0)
+    if crop is not None:
+        x, y, cw, ch = crop_box(crop, width, height)
+        x0, y0 = left + int(x * scale), top + int(y * scale)
+        x1, y1 = left + min(w, round((x + cw) * scale)) - 1, top + min(h, round((y + ch) * scale)) - 1
+        for edge in (np.s_[y0:y0 + 2, x0:x1 + 1], np.s_[y1 - 1:y1 + 1, x0:x1 + 1],
+                     np.s_[y0:y1 + 1, x0:x0 + 2], np.s_[y0:y1 + 1, x1 - 1:x1 + 1]):
+            canvas[edge][..., :3] = CROP_COLOUR
+    return canvas
+
+
+def reference_pixels(props) -> np.ndarray:
+    """The panel's reference as (H, W, 3); VtoError when there is none or it cannot be read."""
+    from vto_core.errors import VtoError
+
+    if props.use_datablock:
+        if props.image is None:
+            raise VtoError("no image chosen")
+        return datablock_pixels(props.image)
+    if not props.image_path:
+        raise VtoError("no image chosen")
+    return load_reference(absolute_path(props.image_path))
+
+
+def icon(props, name: str) -> tuple[int, str]:
+    """(the thumbnail's icon id, "") or (0, why there is none); remade only when what it shows has changed."""
+    global _previews
+    import bpy.utils.previews
+
+    key = source_key(props)
+    if _previews is not None and _made.get(name, (None,))[0] == key:
+        return _made[name][1], _made[name][2]
+    try:
+        reference = reference_pixels(props)
+        mask = read_mask(props.mask_path, reference.shape[:2]) if props.mask_path else None
+        rgba = compose(reference, tuple(props.crop) if props.use_crop else None, mask)
+    except Exception as exc:  # VtoError, or anything a broken file raises: the thumbnail only says why
+        _made[name] = (key, 0, (str(exc).splitlines() or [""])[0])
+        return 0, _made[name][2]
+    if _previews is None:
+        _previews = bpy.utils.previews.new()
+    preview = _previews.get(name) or _previews.new(name)
+    preview.image_size = (SIZE, SIZE)
+    preview.image_pixels_float.foreach_set(rgba[::-1].ravel())  # Blender's rows run bottom-up
+    _made[name] = (key, preview.icon_id, "")
+    return preview.icon_id, ""
+
+
+def unregister() -> None:
+    """Free the preview collection."""
+    global _previews
+    if _previews is not None:
+        import bpy.utils.previews
+
+        bpy.utils.previews.remove(_previews)
+        _previews = None
+    _made.clear()
