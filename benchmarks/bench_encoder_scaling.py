@@ -47,7 +47,8 @@ def pack(data: str, out: str, limit: int | None) -> None:
 
 def train_once(train: tuple, held_out: tuple, wraps, size: int, width: int, steps: int, device: str,
                views: bool = True) -> dict[str, float]:
-    """One graphics-loss run on the first `size` of train = (renders, units); MSE and MAE on held_out (alike)."""
+    """One graphics-loss run on the first `size` of train = (renders, units); MSE and MAE on held_out (alike), and
+    'errors': the held-out absolute errors (n_val, m) in unit ranges."""
     import torch
 
     from training.data import augment
@@ -74,7 +75,7 @@ def train_once(train: tuple, held_out: tuple, wraps, size: int, width: int, step
         error = torch.cat([parameter_difference(val_g[i:i + 256], encoder(val_x[i:i + 256].float() / 255), wraps)
                            for i in range(0, len(val_g), 256)])
     return {"mse": float(error.square().mean()), "mae": float(error.abs().mean()),
-            "seconds": time.perf_counter() - started}
+            "seconds": time.perf_counter() - started, "errors": error.abs().cpu().numpy()}
 
 
 def sweep(packed: list[tuple[str, str]], sizes: list[int], widths: list[int], steps: int, val: int, device: str,
@@ -103,6 +104,7 @@ def sweep(packed: list[tuple[str, str]], sizes: list[int], widths: list[int], st
         figures = train_once((renders, units), held_out, wraps, size, width, steps, device, views)
         rows.append([label, name, manifest["samples"], size, width, f"{figures['mse']:.4f}", f"{figures['mae']:.3f}",
                      f"{figures['seconds']:.0f}"])
+        figures.pop("errors")
         print(json.dumps({"label": label, "data": name, "size": size, "width": width, **figures}), flush=True)
 
     for size in sizes:

@@ -29,6 +29,7 @@ from vto_core.imageio import resize
 from vto_core.inference import EncoderSession, cached_session
 from vto_core.specs import RendererSpec, get_spec
 
+from .compat import uses_nodes
 from .reference import absolute_path, read_reference
 
 MODELS = Path(__file__).parent / "models"
@@ -81,7 +82,7 @@ def lipstick_nodes(material) -> list:
     """The "VTO Lipstick" group nodes of `material` (none when it has no node tree)."""
     from .nodes_lipstick import GROUP_NAME
 
-    if material is None or not material.use_nodes or material.node_tree is None:
+    if material is None or not uses_nodes(material) or material.node_tree is None:
         return []
     return [n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeGroup" and n.node_tree is not None
             and n.node_tree.name.startswith(GROUP_NAME)]

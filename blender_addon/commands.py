@@ -13,15 +13,22 @@ from vto_core.params_io import parse_params
 from vto_core.specs import get_spec
 
 
-def render(renderer: str, values: dict[str, float], source, res: int = 64, samples: int = DEFAULT_SAMPLES, seed: int = 0):
-    """R(X, g) for either renderer: (res, res, 3) display-sRGB float32; values are checked strictly."""
+def render(renderer: str, values: dict[str, float], source, res: int = 64, samples: int = DEFAULT_SAMPLES, seed: int = 0,
+           lighting: str | None = None):
+    """R(X, g) for either renderer: (res, res, 3) display-sRGB float32; values are checked strictly.
+
+    lighting: the default lips scene's, "wide" or "portrait" (None: the default); the hair scene has only its own.
+    """
     values = get_spec(renderer).check_values(values)
     if renderer == "lipstick":
         from .lipstick import render_lipstick
+        from .scene_lips import DEFAULT_LIGHTING
 
         if not (isinstance(source, int) or str(source).isdigit()):
             raise VtoError(f"lipstick sources are seeds of the default lips scene (an integer), got '{source}'")
-        return render_lipstick(values, int(source), res, samples, seed)
+        return render_lipstick(values, int(source), res, samples, seed, lighting=lighting or DEFAULT_LIGHTING)
+    if lighting is not None:
+        raise VtoError("--lighting chooses the default lips scene's light; the hair scene has its own")
     from .hair import render_hair
 
     return render_hair(values, source, res, samples, seed)
@@ -36,10 +43,13 @@ def cmd_render(argv: list[str]) -> int:
     parser.add_argument("--res", type=int, default=64)
     parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES)
     parser.add_argument("--seed", type=int, default=0, help="Cycles seed")
+    parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
+                        help="lipstick: light the default scene's source as portraits are lit (a frontal key, "
+                             "neutral, metered; the default) or the wide way (any HDRI, any rotation)")
     parser.add_argument("--out", required=True, help="image file (.png, .exr, .jpg, .tif)")
     args = parser.parse_args(argv)
     values = parse_params(args.params, args.renderer)
-    image = render(args.renderer, values, args.source, args.res, args.samples, args.seed)
+    image = render(args.renderer, values, args.source, args.res, args.samples, args.seed, args.lighting)
     write_image(args.out, image)
     print(json.dumps({"out": args.out, "renderer": args.renderer, "source": args.source, "params": values}))
     return 0
@@ -92,6 +102,9 @@ def cmd_dataset(argv: list[str]) -> int:
     parser.add_argument("--uniform-ratio", type=float, default=0.5, help="share of uniform draws vs the preset fit")
     parser.add_argument("--source-folder", default=None, help="hair: photos with <name>_mask beside them")
     parser.add_argument("--blend", default=None, help="lipstick: a .blend whose active scene uses the VTO Lipstick group")
+    parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
+                        help="lipstick, default scene: portrait (a frontal key, neutral light, metered exposure; the "
+                             "default) or wide (any HDRI, any rotation)")
     parser.add_argument("--workers", type=int, default=1, help="Blender processes on this machine")
     parser.add_argument("--restart-every", type=int, default=500, help="samples per worker process before a restart")
     parser.add_argument("--worker", default=None, help=argparse.SUPPRESS)
@@ -119,7 +132,7 @@ def cmd_dataset(argv: list[str]) -> int:
             raise VtoError(f"no lipstick input visibly changes {args.blend}: nothing to model")
     shard = parse_shard(args.shard) if args.shard else shard_from_env()
     job = DatasetJob(args.renderer, args.out, args.n, args.seed, args.res, args.samples, params, args.sensitivity,
-                     args.uniform_ratio, args.source_folder, scene)
+                     args.uniform_ratio, args.source_folder, scene, args.lighting)
     indices = shard_range(job.n, shard)
     if args.worker is not None:  # one of run_workers' processes: its share of the shard, then exit
         run_in_process(job, worker_indices(indices, parse_shard(args.worker)), args.limit, quiet=True)

@@ -40,6 +40,7 @@ class DatasetJob:
     uniform_ratio: float = 0.5
     source_folder: str | None = None  # hair: photos with masks instead of the default scene
     scene: str | None = None  # lipstick: render this scene of the open .blend instead of the default
+    lighting: str | None = None  # lipstick, default scene: "wide" or "portrait" (scene_lips; None: its default)
     spec: RendererSpec = field(init=False)
 
     def __post_init__(self):
@@ -58,6 +59,12 @@ class DatasetJob:
         if self.source_folder is not None and not Path(self.source_folder).is_dir():
             raise VtoError(f"--source-folder {self.source_folder} is not a folder")
         self.spec = get_spec(self.renderer, self.params)
+        if self.renderer == "lipstick" and self.scene is None:
+            from .scene_lips import DEFAULT_LIGHTING
+
+            self.lighting = self.lighting or DEFAULT_LIGHTING
+        elif self.lighting is not None:
+            raise VtoError("--lighting chooses the default lips scene's light; hair and a --blend scene keep their own")
 
     def manifest(self) -> dict:
         """What manifest.json records: identical for every shard and rerun of the same dataset."""
@@ -152,7 +159,8 @@ class SampleRenderer:
         job = self.job
 
         def draw(v):
-            return render_lipstick(v, source, job.res, job.samples, cycles_seed, scene=self.user_scene)
+            return render_lipstick(v, source, job.res, job.samples, cycles_seed, scene=self.user_scene,
+                                   lighting=job.lighting)
 
         bare = draw({**values[0], "opacity": 0.0})
         return bare, [draw(v) for v in values], {}

@@ -16,6 +16,7 @@ from vto_core.hair import blur_radius, fit_hair_match, hair_gradient
 from vto_core.imageio import read_image, resize
 from vto_core.specs import RendererSpec, get_spec
 
+from .compat import composite_output, compositor_tree, set_exr_output
 from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, set_blur_radius, set_lut, swatch_group
 from .render import configure_cycles, render_passes, to_display
 from .scene_hair import HAIR_PASS_INDEX, apply_source, build_hair_scene
@@ -123,8 +124,7 @@ def _pass_scene(group_name: str) -> bpy.types.Scene:
     camera = bpy.data.objects.get("VTO Stage Camera") or bpy.data.objects.new("VTO Stage Camera", bpy.data.cameras.new("VTO Stage Camera"))
     scene.collection.objects.link(camera)
     scene.camera = camera  # a compositor-only render still needs one
-    scene.use_nodes = True
-    tree = scene.node_tree
+    tree = compositor_tree(scene, create=True)
     tree.nodes.clear()
     group = swatch_group() if group_name == SWATCH_GROUP else color_group()
     node = tree.nodes.new("CompositorNodeGroup")
@@ -136,16 +136,16 @@ def _pass_scene(group_name: str) -> bpy.types.Scene:
         image_node.name = image_name
         image_node.location = (-300, -200 * index)
         tree.links.new(image_node.outputs["Image"], node.inputs[socket])
-    composite = tree.nodes.new("CompositorNodeComposite")
-    composite.location = (300, 0)
-    tree.links.new(node.outputs[0], composite.inputs["Image"])
+    output = composite_output(tree)
+    output.node.location = (300, 0)
+    tree.links.new(node.outputs[0], output)
     return scene
 
 
 def _run_pass(group_name: str, images: dict[str, np.ndarray], values: dict[str, float]) -> np.ndarray:
     """Fill the pass's images and group inputs, render the compositor, return (H, W, 3) values."""
     scene = _pass_scene(group_name)
-    tree = scene.node_tree
+    tree = compositor_tree(scene)
     for name, pixels in images.items():
         tree.nodes[name].image = _stage_image(name, pixels)
     group_node = tree.nodes[group_name]
@@ -158,7 +158,8 @@ def _run_pass(group_name: str, images: dict[str, np.ndarray], values: dict[str, 
     scene.render.resolution_x, scene.render.resolution_y = width, height
     scene.render.use_compositing = True
     settings = scene.render.image_settings
-    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGB"
+    set_exr_output(settings, multilayer=False)
+    settings.color_depth, settings.color_mode = "32", "RGB"
     return render_passes(scene)["Combined"][..., :3]
 
 

@@ -1,5 +1,9 @@
 """Image-based lighting shared by the default scenes: Blender's bundled HDRIs, rotated and scaled by a seed.
 
+Two kinds: "wide" (any of the 8 maps at any rotation about the vertical and strength 0.6-1.6) and "portrait" (a
+neutral map turned so its key light is in front of the face, white-balanced and metered on the face;
+vto_core.portrait_light).
+
 Each HDRI is split (vto_core.envlight) into a low-contrast residual map and up to ENV_LIGHTS sun lamps that
 carry its bright spots: the same light, sampled directly instead of found by chance, so renders are far
 less noisy for the same samples.
@@ -15,10 +19,15 @@ import bpy
 import numpy as np
 
 from vto_core.envlight import DistantLight, split_environment
+from vto_core.portrait_light import portrait_light
+
+from .compat import enable_nodes
 
 HDRI_WIDTH = 256  # 0.07 s per 64 px render instead of 1.1 s at full size (importance map rebuilt each render)
 ENV_LIGHTS = 4
 SUN_PREFIX = "VTO Env Light "
+LIGHTINGS = ("wide", "portrait")
+PORTRAIT_HDRIS = ("city.exr", "interior.exr", "studio.exr")  # the neutral maps with a clear key light
 
 
 def hdri_paths() -> list[str]:
@@ -35,8 +44,8 @@ def _pixels(image: bpy.types.Image) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=None)
-def _split(path: str) -> tuple[str, tuple[DistantLight, ...]]:
-    """Load an HDRI once, downscaled, and split it: (name of the residual image, its lights)."""
+def _split(path: str) -> tuple[str, tuple[DistantLight, ...], np.ndarray]:
+    """Load an HDRI once, downscaled, and split it: (name of the residual image, its lights, the residual (H, W, 3))."""
     name = "VTO HDRI " + os.path.basename(path)
     residual_image = bpy.data.images.get(name)
     source = bpy.data.images.load(path)
@@ -51,16 +60,16 @@ def _split(path: str) -> tuple[str, tuple[DistantLight, ...]]:
     rgba[..., :3] = residual
     residual_image.pixels.foreach_set(rgba.reshape(-1))
     residual_image.pack()  # lives in the .blend, not on disk
-    return name, tuple(lights)
+    return name, tuple(lights), residual
 
 
 def load_hdri(path: str) -> bpy.types.Image:
     """The residual map of an HDRI (its bright spots lifted out into lights), made once per session."""
-    name, _ = _split(path)
+    name, _, _ = _split(path)
     image = bpy.data.images.get(name)
     if image is None:  # the .blend was reloaded: make it again
         _split.cache_clear()
-        name, _ = _split(path)
+        name, _, _ = _split(path)
         image = bpy.data.images[name]
     return image
 
@@ -68,16 +77,20 @@ def load_hdri(path: str) -> bpy.types.Image:
 def build_hdri_world(scene: bpy.types.Scene) -> None:
     """Give `scene` a world of its own (environment texture behind a z-rotation) and its env-light suns."""
     world = bpy.data.worlds.new(scene.name)
-    world.use_nodes = True
+    enable_nodes(world)
     nodes, links = world.node_tree.nodes, world.node_tree.links
     mapping = nodes.new("ShaderNodeMapping")
     mapping.name = "HDRI Rotation"
     environment = nodes.new("ShaderNodeTexEnvironment")
     environment.name = "HDRI"
     environment.image = load_hdri(hdri_paths()[0])
+    tint = nodes.new("ShaderNodeVectorMath")  # portrait lighting's white balance; (1, 1, 1) for wide
+    tint.name, tint.operation = "HDRI Tint", "MULTIPLY"
+    tint.inputs[1].default_value = (1.0, 1.0, 1.0)
     links.new(nodes.new("ShaderNodeTexCoord").outputs["Generated"], mapping.inputs["Vector"])
     links.new(mapping.outputs[0], environment.inputs["Vector"])
-    links.new(environment.outputs[0], nodes["Background"].inputs["Color"])
+    links.new(environment.outputs[0], tint.inputs[0])
+    links.new(tint.outputs[0], nodes["Background"].inputs["Color"])
     world.cycles.sampling_method = "MANUAL"
     world.cycles.sample_map_resolution = HDRI_WIDTH // 2
     scene.world = world
@@ -90,7 +103,7 @@ def build_hdri_world(scene: bpy.types.Scene) -> None:
 
 
 def randomise_hdri(scene: bpy.types.Scene, rng: np.random.Generator, strength: tuple[float, float]) -> None:
-    """Pick an HDRI, a rotation about z and a strength in `strength` for `scene`'s world and suns, in place."""
+    """Wide lighting: an HDRI, a rotation about z and a strength in `strength` for `scene`'s world and suns."""
     nodes = scene.world.node_tree.nodes
     paths = hdri_paths()
     path = paths[rng.integers(len(paths))]
@@ -99,22 +112,46 @@ def randomise_hdri(scene: bpy.types.Scene, rng: np.random.Generator, strength: t
     scale = rng.uniform(*strength)
     nodes["HDRI Rotation"].inputs["Rotation"].default_value = (0.0, 0.0, rotation)
     nodes["Background"].inputs["Strength"].default_value = scale
-    _, lights = _split(path)
+    nodes["HDRI Tint"].inputs[1].default_value = (1.0, 1.0, 1.0)
+    _, lights, _ = _split(path)
     # The mapping looks the map up at Rz(rotation) d, so a spot at map direction e shines from Rz(-rotation) e.
     cos, sin = math.cos(-rotation), math.sin(-rotation)
+    turned = [np.array([cos * x - sin * y, sin * x + cos * y, z]) for x, y, z in (light.direction for light in lights)]
+    _set_suns(scene, [(d, light.irradiance, light.angle) for d, light in zip(turned, lights)], scale)
+
+
+def randomise_portrait(scene: bpy.types.Scene, rng: np.random.Generator) -> None:
+    """Portrait lighting: a neutral HDRI turned so its key light is in front of the face (+z), white-balanced and
+    metered on the face (vto_core.portrait_light), for `scene`'s world and suns."""
+    from mathutils import Matrix
+
+    nodes = scene.world.node_tree.nodes
+    paths = [path for path in hdri_paths() if os.path.basename(path) in PORTRAIT_HDRIS]
+    path = paths[rng.integers(len(paths))]
+    nodes["HDRI"].image = load_hdri(path)
+    _, lights, residual = _split(path)
+    light = portrait_light(residual, list(lights), rng)
+    nodes["HDRI Rotation"].inputs["Rotation"].default_value = Matrix(light.lookup.tolist()).to_euler("XYZ")
+    nodes["Background"].inputs["Strength"].default_value = light.strength * light.fill
+    nodes["HDRI Tint"].inputs[1].default_value = tuple(light.tint)
+    _set_suns(scene, [(light.rotation @ spot.direction, light.tint * spot.irradiance, spot.angle) for spot in lights],
+              light.strength)
+
+
+def _set_suns(scene: bpy.types.Scene, suns: list[tuple[np.ndarray, np.ndarray, float]], scale: float) -> None:
+    """Point the scene's env-light suns: (world direction towards the light (3,), RGB irradiance (3,), angle) each,
+    the irradiance times `scale`; the suns left over are off."""
     for index in range(ENV_LIGHTS):
         sun_object = scene.objects[f"{SUN_PREFIX}{scene.name} {index}"]
         sun = sun_object.data
-        if index >= len(lights):
+        if index >= len(suns):
             sun.energy = 0.0
             continue
-        light = lights[index]
-        x, y, z = light.direction
-        direction = np.array([cos * x - sin * y, sin * x + cos * y, z])
-        peak = float(light.irradiance.max())
+        direction, rgb, angle = suns[index]
+        peak = float(rgb.max())
         sun.energy = scale * peak
-        sun.color = tuple(light.irradiance / peak)
-        sun.angle = max(light.angle, 1e-3)
+        sun.color = tuple(rgb / peak)
+        sun.angle = max(angle, 1e-3)
         sun_object.rotation_mode = "QUATERNION"
         sun_object.rotation_quaternion = _track(direction)
 

@@ -9,9 +9,10 @@ from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.specs import get_spec
 
+from .compat import uses_nodes
 from .nodes_lipstick import GROUP_NAME
 from .render import configure_cycles, render_passes, render_user_scene, to_display
-from .scene_lips import apply_source, build_lips_scene
+from .scene_lips import DEFAULT_LIGHTING, apply_source, build_lips_scene, use_lighting
 
 
 def makeup_nodes(scene: bpy.types.Scene) -> list[bpy.types.Node]:
@@ -19,7 +20,7 @@ def makeup_nodes(scene: bpy.types.Scene) -> list[bpy.types.Node]:
     found = []
     materials = {slot.material for obj in scene.objects for slot in obj.material_slots if slot.material}
     for material in materials:
-        if material.use_nodes:
+        if uses_nodes(material):
             found += [n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeGroup"
                       and n.node_tree is not None and n.node_tree.name.startswith(GROUP_NAME)]
     return found
@@ -74,8 +75,8 @@ def linked_inputs(scene: bpy.types.Scene) -> list[str]:
 
 def render_lipstick(values: dict[str, float], source: int = 0, res: int | None = 64,
                     samples: int | None = DEFAULT_SAMPLES, seed: int = 0,
-                    scene: bpy.types.Scene | None = None) -> np.ndarray:
-    """R(X, g): display-sRGB image (res, res, 3) float32 of the lips `source` wearing `values`.
+                    scene: bpy.types.Scene | None = None, lighting: str = DEFAULT_LIGHTING) -> np.ndarray:
+    """R(X, g): display-sRGB image (res, res, 3) float32 of the lips `source`, lit the `lighting` way, wearing `values`.
 
     With `scene` given (a user's scene using the group) that scene is rendered with its own settings, only `values`
     and the res/samples given (not None) changing it; `source` is ignored.
@@ -84,6 +85,7 @@ def render_lipstick(values: dict[str, float], source: int = 0, res: int | None =
         set_lipstick_values(scene, values, fill_defaults=False)
         return render_user_scene(scene, res, samples, seed)
     scene = build_lips_scene()
+    use_lighting(scene, lighting)
     if scene.get("vto_source_seed") != int(source):
         apply_source(scene, int(source))
     set_lipstick_values(scene, values)

@@ -49,12 +49,16 @@ class SourceRenderer:
     """R(X, .) on one fixed source X, at res px, `samples` spp and one Cycles seed: values -> (res, res, 3).
 
     source: a default-scene seed (int or digits), or for hair a photo with its mask. The hair source is rendered
-    (or loaded) once here; `renders` counts the calls.
+    (or loaded) once here; `renders` counts the calls. lighting: the default lips scene's ("wide", "portrait";
+    None: its default); hair has only its own.
     """
 
-    def __init__(self, renderer: str, source, res: int, samples: int = DEFAULT_SAMPLES, seed: int = 0):
+    def __init__(self, renderer: str, source, res: int, samples: int = DEFAULT_SAMPLES, seed: int = 0,
+                 lighting: str | None = None):
         self.spec = get_spec(renderer)
-        self.res, self.samples, self.seed, self.renders = res, samples, seed, 0
+        self.res, self.samples, self.seed, self.renders, self.lighting = res, samples, seed, 0, lighting
+        if lighting is not None and renderer != "lipstick":
+            raise VtoError("a lighting is chosen for the default lips scene only; the hair scene has its own")
         seed_like = isinstance(source, (int, np.integer)) or str(source).isdigit()
         if renderer == "lipstick":
             if not seed_like:
@@ -72,8 +76,10 @@ class SourceRenderer:
         self.renders += 1
         if self.hair is None:
             from .lipstick import render_lipstick
+            from .scene_lips import DEFAULT_LIGHTING
 
-            return render_lipstick(values, self.source, self.res, self.samples, self.seed)
+            return render_lipstick(values, self.source, self.res, self.samples, self.seed,
+                                   lighting=self.lighting or DEFAULT_LIGHTING)
         from .hair import run_hair_stage
 
         return run_hair_stage(self.hair, values)
@@ -92,14 +98,15 @@ def photo_source(image_path: Path) -> str | None:
 
 def match(model: str, image_path: str, source=None, refine: str = "none", imitator: str | None = None,
           res: int | None = None, samples: int = DEFAULT_SAMPLES, seed: int = 0, objective: str = "mse",
-          start_at: str = "encoder", imitator_refine=None) -> dict:
+          start_at: str = "encoder", imitator_refine=None, lighting: str | None = None) -> dict:
     """Estimate (and refine) the parameters of `image_path`.
 
     Returns {'renderer', 'params': all parameters (raw values), 'refined', 'note', 'encoder_ms'} and, when
     refined, 'method', 'refine_ms', 'loss_start', 'loss' and 'renders' or 'steps'. res: the render size of render
     search (default: the reference's own, which must then be square). start_at: refinement starts at the 'encoder'
     estimate or the 'mean' preset. imitator_refine: (spec, imitator run, source, reference, start unit, steps, samples,
-    seed) -> a refinement with .unit, .loss, .start_loss, .steps; needed by imitator:K (pipeline.match gives it).
+    seed, lighting) -> a refinement with .unit, .loss, .start_loss, .steps; needed by imitator:K (pipeline.match gives it).
+    lighting: the default lips scene's, for a lipstick --source (None: its default).
     """
     kind, amount = parse_refine(refine)
     if kind == "imitator" and not imitator:
@@ -136,7 +143,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
                 raise VtoError(f"{image_path} is {reference.shape[1]}x{reference.shape[0]}; renders are square: pass "
                                "--res R to compare at R x R")
             res = reference.shape[0]
-        on_source = SourceRenderer(spec.renderer, source, res, samples, seed)
+        on_source = SourceRenderer(spec.renderer, source, res, samples, seed, lighting)
         held = None
         if on_source.hair is not None and Path(str(source)).resolve() == Path(image_path).resolve():
             from .hair import own_source_held
@@ -149,7 +156,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
     else:
         if imitator_refine is None:
             raise VtoError(NO_IMITATOR)
-        refined = imitator_refine(spec, imitator, source, reference, start_unit, amount, samples, seed)
+        refined = imitator_refine(spec, imitator, source, reference, start_unit, amount, samples, seed, lighting)
         result["steps"] = refined.steps
     result.update(params=spec.values(spec.denormalise(refined.unit)), refined=True, method=refine,
                   refine_ms=1000 * (time.perf_counter() - started), loss_start=refined.start_loss, loss=refined.loss)
@@ -178,6 +185,8 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
     parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES, help="Cycles samples of refinement renders")
     parser.add_argument("--seed", type=int, default=0, help="Cycles seed of every refinement render")
     parser.add_argument("--objective", default="mse", choices=sorted(OBJECTIVES), help="render search: mse or 1-SSIM")
+    parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
+                        help="lipstick: the default lips scene's lighting of --source (default portrait)")
     parser.add_argument("--start", default="encoder", choices=["encoder", "mean"],
                         help="refinement starts at the encoder's estimate or at the mean preset")
     parser.add_argument("--out-params", default=None, help="JSON file for the estimate (takes `vto render --params`)")
@@ -205,7 +214,7 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
     if args.res is not None and not 8 <= args.res <= 4096 or not 1 <= args.samples <= 65536:
         raise VtoError(f"--res must be in [8, 4096] and --samples in [1, 65536], got {args.res} and {args.samples}")
     result = match(args.model, args.image, args.source, args.refine, args.imitator, args.res, args.samples, args.seed,
-                   args.objective, args.start, imitator_refine)
+                   args.objective, args.start, imitator_refine, args.lighting)
     if result["note"]:
         print(f"vto match: {result['note']}", file=sys.stderr)
     temporary = out.with_name(out.name + ".tmp")

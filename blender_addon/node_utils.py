@@ -8,6 +8,8 @@ from collections.abc import Iterable
 
 from vto_core.specs import ParamSpec
 
+from .compat import compositor_idname
+
 # Bumped whenever a builder changes what it builds, so older groups in saved files are rebuilt.
 BUILDER_VERSION = 3
 VERSION_KEY = "vto_builder_version"
@@ -24,7 +26,10 @@ class Builder:
 
     def node(self, kind: str, label: str = "", **props):
         """Add a node of type prefix+kind (or a full bl_idname) and set its properties."""
-        idname = kind if kind.startswith(("Shader", "Compositor", "Node")) else self.prefix + "Node" + kind
+        if kind.startswith(("Shader", "Compositor", "Node")):
+            idname = kind
+        else:
+            idname = compositor_idname(kind) if self.prefix == "Compositor" else self.prefix + "Node" + kind
         node = self.tree.nodes.new(idname)
         for key, value in props.items():
             setattr(node, key, value)

@@ -7,13 +7,13 @@ import bpy
 from vto_core.hair import BLEND_OFFSET, BLEND_RAMP, BLEND_SCALE, GLOBAL_CONTRAST_GAIN, LOCAL_CONTRAST_GAIN
 from vto_core.specs import get_spec
 
+from .compat import COMPOSITOR_TREE, mix_color_sockets, set_gaussian_blur
 from .node_utils import Builder, add_spec_inputs, get_or_create_group
 
 SWATCH_GROUP = "VTO Hair Swatch"
 COLOR_GROUP = "VTO Hair Color"
 LUT_NODE = "Histogram LUT"
 BLUR_NODE = "Local Contrast Blur"
-COMPOSITOR_TREE = "CompositorNodeTree"
 
 
 def _params(group_name: str):
@@ -67,8 +67,9 @@ def _build_color(group: bpy.types.NodeTree) -> None:
     b.link(gin["Image"], lut.inputs["Image"])
 
     # Shine: global contrast (S-curve) plus local contrast (unsharp mask; the blur's size is set per render).
-    blur = b.node("Blur", label="Local Contrast Blur (size set per render)", filter_type="GAUSS")
+    blur = b.node("Blur", label="Local Contrast Blur (size set per render)")
     blur.name = BLUR_NODE
+    set_gaussian_blur(blur)
     b.link(lut.outputs[0], blur.inputs["Image"])
     curved, blurred = b.node("SeparateColor"), b.node("SeparateColor")
     b.link(lut.outputs[0], curved.inputs[0])
@@ -85,11 +86,11 @@ def _build_color(group: bpy.types.NodeTree) -> None:
     weight = b.math("MULTIPLY", b.math("SUBTRACT", gin["Gradient"], offset), BLEND_RAMP, clamp=True)
     mask = b.math("MULTIPLY", gin["Mask"], 1.0, clamp=True)
     alpha = b.math("MULTIPLY", b.math("MULTIPLY", mask, weight), gin["Intensity"])
-    mix = b.node("MixRGB", label="Intensity")
-    b.link(alpha, mix.inputs[0])
-    b.link(gin["Image"], mix.inputs[1])
-    b.link(shined.outputs[0], mix.inputs[2])
-    b.link(mix.outputs[0], b.node("NodeGroupOutput").inputs[0])
+    factor, first, second, result = mix_color_sockets(b.node("MixRGB", label="Intensity"))
+    b.link(alpha, factor)
+    b.link(gin["Image"], first)
+    b.link(shined.outputs[0], second)
+    b.link(result, b.node("NodeGroupOutput").inputs[0])
 
 
 def swatch_group() -> bpy.types.NodeTree:

@@ -6,6 +6,7 @@ import bpy
 
 from vto_core.specs import get_spec
 
+from .compat import enable_nodes
 from .node_utils import Builder, add_spec_inputs, get_or_create_group
 
 GROUP_NAME = "VTO Lipstick"
@@ -182,7 +183,7 @@ def lipstick_material(name: str, values: dict[str, float] | None = None) -> bpy.
     """A new material: a Principled BSDF "Bare Lips" -> the "VTO Lipstick" group (inputs set from `values`, checked
     against the spec; the others at the group's defaults) -> Material Output."""
     material = bpy.data.materials.new(name)
-    material.use_nodes = True
+    enable_nodes(material)
     nodes, links = material.node_tree.nodes, material.node_tree.links
     nodes.clear()
     bare = nodes.new("ShaderNodeBsdfPrincipled")

@@ -15,6 +15,8 @@ import numpy as np
 from vto_core.colour import linear_to_srgb
 from vto_core.errors import VtoError
 
+from .compat import IMAGE_FORMAT_FIELDS, canonical_pass_name, set_exr_output, set_file_format
+
 # tmpfs when there is one: the render round-trips through a file because headless
 # Render Results hold no pixels.
 _TMP_ROOT = "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else None
@@ -39,7 +41,7 @@ def configure_cycles(scene: bpy.types.Scene, res: int, samples: int, seed: int =
     scene.view_settings.gamma = 1.0
     scene.display_settings.display_device = "sRGB"
     settings = scene.render.image_settings
-    settings.file_format = "OPEN_EXR_MULTILAYER"
+    set_exr_output(settings, multilayer=True)
     settings.color_depth = "32"
     settings.exr_codec = "NONE"
 
@@ -105,20 +107,25 @@ def read_exr_layers(path: str) -> dict[str, np.ndarray]:
     image = oiio.ImageInput.open(path)
     if image is None:
         raise VtoError(f"cannot read render output {path}: {oiio.geterror()}")
+    parts = []  # one part per pass in multi-part files (Blender 5), one part for all in older ones
     try:
-        spec = image.spec()
-        pixels = image.read_image(0, 0, 0, spec.nchannels, "float")
+        while image.seek_subimage(len(parts), 0):
+            spec = image.spec()
+            pixels = image.read_image(len(parts), 0, 0, spec.nchannels, "float")
+            if pixels is None:
+                raise VtoError(f"cannot read render output {path}")
+            parts.append((spec.channelnames, pixels))
     finally:
         image.close()
-    if pixels is None:
-        raise VtoError(f"cannot read render output {path}")
-    layers: dict[str, list[tuple[str, int]]] = {}
-    for index, name in enumerate(spec.channelnames):
-        parts = name.split(".")  # ViewLayer.Pass.Channel
-        layers.setdefault(parts[-2] if len(parts) >= 2 else "Combined", []).append((parts[-1], index))
+    layers: dict[str, list[tuple[str, np.ndarray]]] = {}
+    for names, pixels in parts:
+        for index, name in enumerate(names):
+            words = name.split(".")  # ViewLayer.Pass.Channel
+            pass_name = canonical_pass_name(words[-2] if len(words) >= 2 else "Combined")
+            layers.setdefault(pass_name, []).append((words[-1], pixels[..., index]))
     order = {c: i for i, c in enumerate("RGBAXYZV")}
     return {
-        pass_name: np.ascontiguousarray(pixels[..., [i for _, i in sorted(chans, key=lambda c: order.get(c[0], 99))]])
+        pass_name: np.ascontiguousarray(np.stack([p for _, p in sorted(chans, key=lambda c: order.get(c[0], 99))], -1))
         for pass_name, chans in layers.items()
     }
 
@@ -192,7 +199,7 @@ def render_user_scene(scene: bpy.types.Scene, res: int | None = None, samples: i
     render, settings = scene.render, scene.render.image_settings
     with _restored(render, ("filepath", "use_file_extension", "resolution_x", "resolution_y",
                             "resolution_percentage")), \
-            _restored(settings, ("file_format", "color_depth", "color_mode", "color_management")), \
+            _restored(settings, (*IMAGE_FORMAT_FIELDS, "color_depth", "color_mode", "color_management")), \
             _restored(scene.cycles, ("seed", "use_animated_seed")), \
             (_restored(samples_at[0], samples_at[1:]) if samples_at else contextlib.nullcontext()):
         if res is not None:
@@ -202,7 +209,8 @@ def render_user_scene(scene: bpy.types.Scene, res: int | None = None, samples: i
             setattr(*samples_at, samples)
         if seed is not None:
             scene.cycles.seed, scene.cycles.use_animated_seed = seed, False
-        settings.file_format, settings.color_depth, settings.color_mode = "PNG", "16", "RGB"
+        set_file_format(settings, "PNG")
+        settings.color_depth, settings.color_mode = "16", "RGB"
         settings.color_management = "FOLLOW_SCENE"
         render.filepath, render.use_file_extension = path, False
         with bpy.context.temp_override(scene=scene), _quiet_stdout():

@@ -9,6 +9,7 @@ import numpy as np
 from vto_core.colour import srgb_to_linear
 from vto_core.specs import get_spec
 
+from .compat import enable_nodes
 from .nodes_lipstick import lipstick_group
 from .render import configure_cycles, render_passes
 
@@ -22,7 +23,7 @@ def furnace_scene() -> bpy.types.Scene:
         return scene
     scene = bpy.data.scenes.new(FURNACE_SCENE)
     world = bpy.data.worlds.new(FURNACE_SCENE)
-    world.use_nodes = True
+    enable_nodes(world)
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (1, 1, 1, 1)
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
     scene.world = world
@@ -33,7 +34,7 @@ def furnace_scene() -> bpy.types.Scene:
     shape.free()
     mesh.shade_smooth()
     material = bpy.data.materials.new(FURNACE_SCENE)
-    material.use_nodes = True
+    enable_nodes(material)
     nodes = material.node_tree.nodes
     nodes.clear()
     lips = nodes.new("ShaderNodeBsdfDiffuse")

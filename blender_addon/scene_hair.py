@@ -7,12 +7,12 @@ from __future__ import annotations
 
 import math
 
-import bmesh
 import bpy
 import numpy as np
 
 from vto_core.colour import srgb_to_linear
 
+from .compat import enable_nodes
 from .lighting import build_hdri_world, randomise_hdri
 from .scene_lips import SKIN_TONES
 
@@ -56,9 +56,31 @@ def strand_positions(rng: np.random.Generator) -> np.ndarray:
     return points.reshape(-1, 3).astype(np.float32)
 
 
+def uv_sphere(segments: int, rings: int, radius: float) -> tuple[list, list, list]:
+    """(vertices, edges, faces) of a UV sphere about z, in a fixed order.
+
+    bmesh's create_uvsphere orders its faces differently from run to run, and with them Blender's normals and
+    Cycles' sums, so renders changed in the last bit between runs.
+    """
+    polar = np.pi * np.arange(1, rings) / rings
+    azimuth = 2 * np.pi * np.arange(segments) / segments
+    ring = np.stack([np.outer(np.sin(polar), np.cos(azimuth)), np.outer(np.sin(polar), np.sin(azimuth)),
+                     np.repeat(np.cos(polar)[:, None], segments, 1)], -1).reshape(-1, 3)
+    vertices = np.concatenate([[(0.0, 0.0, 1.0)], ring, [(0.0, 0.0, -1.0)]]) * radius
+    bottom = len(vertices) - 1
+
+    def at(k, j):  # vertex j of ring k (0 = nearest the top)
+        return 1 + k * segments + j % segments
+
+    faces = [(0, at(0, j), at(0, j + 1)) for j in range(segments)]
+    faces += [(at(k, j), at(k + 1, j), at(k + 1, j + 1), at(k, j + 1)) for k in range(rings - 2) for j in range(segments)]
+    faces += [(bottom, at(rings - 2, j + 1), at(rings - 2, j)) for j in range(segments)]
+    return vertices.tolist(), [], faces
+
+
 def _hair_material() -> bpy.types.Material:
     material = bpy.data.materials.new(HAIR_MATERIAL)
-    material.use_nodes = True
+    enable_nodes(material)
     nodes, links = material.node_tree.nodes, material.node_tree.links
     nodes.clear()
     hair = nodes.new("ShaderNodeBsdfHairPrincipled")
@@ -76,7 +98,7 @@ def _hair_material() -> bpy.types.Material:
 
 def _head_material() -> bpy.types.Material:
     material = bpy.data.materials.new(HEAD_MATERIAL)
-    material.use_nodes = True
+    enable_nodes(material)
     material.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.5
     return material
 
@@ -88,10 +110,7 @@ def build_hair_scene() -> bpy.types.Scene:
         return scene
     scene = bpy.data.scenes.new(SCENE_NAME)
     mesh = bpy.data.meshes.new(HEAD_OBJECT)
-    shape = bmesh.new()
-    bmesh.ops.create_uvsphere(shape, u_segments=48, v_segments=24, radius=HEAD_RADIUS)
-    shape.to_mesh(mesh)
-    shape.free()
+    mesh.from_pydata(*uv_sphere(48, 24, HEAD_RADIUS))
     mesh.shade_smooth()
     mesh.materials.append(_head_material())
     head = bpy.data.objects.new(HEAD_OBJECT, mesh)

@@ -12,7 +12,10 @@ import numpy as np
 
 from vto_core.colour import srgb_to_linear
 
-from .lighting import build_hdri_world, randomise_hdri
+from .compat import enable_nodes
+from vto_core.errors import VtoError
+
+from .lighting import LIGHTINGS, build_hdri_world, randomise_hdri, randomise_portrait
 from .nodes_lipstick import lipstick_material
 
 SCENE_NAME = "VTO Lips"
@@ -30,6 +33,7 @@ MOUTH_DEPTH = 0.35
 # sRGB 8-bit tones, light to dark.
 SKIN_TONES = [(241, 194, 167), (224, 172, 138), (198, 146, 110), (161, 110, 75), (118, 78, 52), (80, 52, 36)]
 LIP_TONE_SHIFT = (-0.06, -0.22, -0.18)  # lips: a redder, darker version of the skin tone
+DEFAULT_LIGHTING = "portrait"
 
 
 def lip_shape(rng: np.random.Generator) -> dict[str, float]:
@@ -103,7 +107,7 @@ def _mesh_object(scene, name: str, vertices: np.ndarray, faces, material) -> bpy
 
 def _skin_material() -> bpy.types.Material:
     material = bpy.data.materials.new(SKIN_MATERIAL)
-    material.use_nodes = True
+    enable_nodes(material)
     nodes, links = material.node_tree.nodes, material.node_tree.links
     skin = nodes["Principled BSDF"]
     skin.inputs["Roughness"].default_value = 0.5
@@ -170,12 +174,24 @@ def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
     lips_material = bpy.data.materials[LIPS_MATERIAL].node_tree.nodes
     lips_material["Bare Lips"].inputs["Base Color"].default_value = (*srgb_to_linear(lip_tone), 1.0)
 
-    randomise_hdri(scene, rng, (0.6, 1.6))
+    if scene.get("vto_lighting", DEFAULT_LIGHTING) == "portrait":
+        randomise_portrait(scene, rng)
+    else:
+        randomise_hdri(scene, rng, (0.6, 1.6))
 
     camera = scene.camera
     camera.location = (rng.normal(0, 0.08), rng.normal(-0.05, 0.08), rng.uniform(3.6, 4.4))
     camera.rotation_euler = (rng.normal(0, 0.02), rng.normal(0, 0.02), rng.normal(0, 0.04))
     scene["vto_source_seed"] = int(source_seed)
+
+
+def use_lighting(scene: bpy.types.Scene, lighting: str) -> None:
+    """Light the default lips scene's sources the `lighting` way from now on ("wide" or "portrait", lighting.py)."""
+    if lighting not in LIGHTINGS:
+        raise VtoError(f"lighting is {' or '.join(LIGHTINGS)}, got '{lighting}'")
+    if scene.get("vto_lighting", DEFAULT_LIGHTING) != lighting:
+        scene["vto_lighting"] = lighting
+        scene.pop("vto_source_seed", None)  # the next render applies its source again, lit the new way
 
 
 def lips_mask(source_seed: int, res: int) -> np.ndarray:

@@ -27,6 +27,8 @@ def cmd_eval(argv: list[str]) -> int:
                                                                "e.g. 400")
     parser.add_argument("--compare", action="append", default=[], metavar="NAME=MODEL",
                         help="another encoder of the same spec, evaluated on the same references (repeatable)")
+    parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
+                        help="lipstick: the default lips scene's lighting (default portrait)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     compare = tuple(tuple(item.split("=", 1)) for item in args.compare)
@@ -37,7 +39,7 @@ def cmd_eval(argv: list[str]) -> int:
     except ValueError:
         raise VtoError(f"--search-from-mean takes render budgets like 100,400, got '{args.search_from_mean}'") from None
     settings = EvalSettings(args.n, args.res, args.samples, args.seed, tuple(r for r in args.refine.split(",") if r),
-                            from_mean, args.imitator, compare, quiet=args.quiet)
+                            from_mean, args.imitator, compare, lighting=args.lighting, quiet=args.quiet)
     summary = run_eval(args.model, args.out, settings)
     print(json.dumps({"out": args.out, **{m: {"psnr": s["psnr"][0], "ssim": s["ssim"][0], "ms": s["ms_per_reference"]}
                                           for m, s in summary.items()}}))

@@ -52,6 +52,7 @@ class EvalSettings:
     search_from_mean: tuple[int, ...] = ()  # render budgets of render search started at the mean preset
     imitator: str | None = None  # imitator run for imitator:K
     compare: tuple[tuple[str, str], ...] = ()  # (name, ONNX path): other encoders of the same spec, same references
+    lighting: str | None = None  # the default lips scene's: "wide" or "portrait" (None: its default)
     sheet_rows: int = 6
     quiet: bool = False
 
@@ -219,7 +220,7 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
 
         # Everything on source A first (the reference and what each method renders there), then B.
         started = time.perf_counter()
-        on_a = SourceRenderer(spec.renderer, source_a, settings.res, settings.samples, cycles_seed)
+        on_a = SourceRenderer(spec.renderer, source_a, settings.res, settings.samples, cycles_seed, settings.lighting)
         source_ms = 1000 * (time.perf_counter() - started)  # hair: the source render every A-side method needs
         reference = on_a(values)
         estimates, ms = {"mean preset": mean_values}, {"mean preset": 0.0}
@@ -238,7 +239,8 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
         for name, (kind, amount) in list(compared.items())[3:]:
             started = time.perf_counter()
             if kind == "imitator":
-                x, target = imitator_inputs(refiner, spec.renderer, source_a, reference, settings.samples, cycles_seed)
+                x, target = imitator_inputs(refiner, spec.renderer, source_a, reference, settings.samples, cycles_seed,
+                                            settings.lighting)
                 found = refiner.refine(x, target, encoder_unit, amount)
                 spent_before = ms["encoder"]
             elif kind == "other encoder":
@@ -256,7 +258,7 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
             estimates[name] = unit_values(found.unit)
             ms[name] = spent_before + 1000 * (time.perf_counter() - started)
 
-        on_b = SourceRenderer(spec.renderer, source_b, settings.res, settings.samples, cycles_seed)
+        on_b = SourceRenderer(spec.renderer, source_b, settings.res, settings.samples, cycles_seed, settings.lighting)
         truth = on_b(values)
         row = {"index": index, "source_a": source_a, "source_b": source_b, "cycles_seed": cycles_seed,
                "truth": {k: values[k] for k in spec.modelled}, "buckets": buckets(spec, values, unit),

@@ -19,7 +19,8 @@ def imitator_refiner(spec: RendererSpec, imitator_run: str):
     return ImitatorRefiner(imitator_run, spec)
 
 
-def imitator_inputs(refiner, renderer: str, source, reference: np.ndarray, samples: int, seed: int):
+def imitator_inputs(refiner, renderer: str, source, reference: np.ndarray, samples: int, seed: int,
+                    lighting: str | None = None):
     """(X, reference) at the imitator's size: X rendered (or loaded) there, the reference resized."""
     from blender_addon.match import SourceRenderer
     from blender_addon.reference import at_size
@@ -27,15 +28,16 @@ def imitator_inputs(refiner, renderer: str, source, reference: np.ndarray, sampl
     height, width = refiner.image_size
     if height != width:
         raise VtoError(f"the imitator works on {height}x{width} images; the default scenes render square ones")
-    x = SourceRenderer(renderer, source, height, samples, seed).source_image()
+    x = SourceRenderer(renderer, source, height, samples, seed, lighting).source_image()
     return x, at_size(reference, height, width)
 
 
 def refine_with_imitator(spec: RendererSpec, imitator_run: str, source, reference: np.ndarray, start_unit: np.ndarray,
-                         steps: int, samples: int, seed: int):
+                         steps: int, samples: int, seed: int, lighting: str | None = None):
     """`steps` gradient steps through the imitator from `start_unit` (m,): training.refine.ImitatorRefined."""
     refiner = imitator_refiner(spec, imitator_run)
-    return refiner.refine(*imitator_inputs(refiner, spec.renderer, source, reference, samples, seed), start_unit, steps)
+    return refiner.refine(*imitator_inputs(refiner, spec.renderer, source, reference, samples, seed, lighting),
+                          start_unit, steps)
 
 
 def cmd_match(argv: list[str]) -> int:

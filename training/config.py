@@ -71,6 +71,7 @@ class EncoderConfig(CommonConfig):
     lambda_rendering: float = 20.0
     loss: str = "both"  # ablation: graphics | rendering | both
     augment: bool = False  # mirrored and shifted views of each render (training/data.augment)
+    photo_views: bool = False  # what photos show and renders do not: tilt, zoom, blur, sensor noise (data.photo_views)
 
 
 # Named settings for --config NAME (a JSON file path works too). The paper's schedule is the defaults' optimiser

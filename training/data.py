@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset, DistributedSampler
@@ -100,6 +102,33 @@ def make_loader(dataset: RenderDataset, batch_size: int, seed: int, num_workers:
                       generator=generator, num_workers=num_workers)
 
 
+def photo_views(batch: dict, max_tilt: float = 0.17, zoom: tuple[float, float] = (0.8, 1.25),
+                max_blur: float = 1.0, max_noise: float = 0.02) -> dict:
+    """What a photo of lips shows and a render does not, at random per sample: a tilt of up to `max_tilt` rad, the
+    lips `zoom` times as large in the crop (edges repeated), a Gaussian blur of up to `max_blur` px and sensor noise
+    of up to `max_noise` (std, display units). Tilt and zoom move 'source' and 'render' (B, 3, H, W) together; blur
+    and noise touch the render only (the reference). Colour is kept: a constant image stays that constant."""
+    render = batch["render"]
+    count, device = len(render), render.device
+    angle = (torch.rand(count, device=device) * 2 - 1) * max_tilt
+    scale = torch.exp(torch.empty(count, device=device).uniform_(-math.log(zoom[1]), -math.log(zoom[0])))
+    cos, sin = torch.cos(angle) * scale, torch.sin(angle) * scale
+    theta = torch.stack([torch.stack([cos, -sin, torch.zeros_like(cos)], -1),
+                         torch.stack([sin, cos, torch.zeros_like(cos)], -1)], 1)  # (B, 2, 3): output -> input
+    grid = torch.nn.functional.affine_grid(theta, list(render.shape), align_corners=False)
+    moved = {k: torch.nn.functional.grid_sample(batch[k], grid, padding_mode="border", align_corners=False)
+             for k in ("source", "render") if k in batch}
+    sigma = torch.rand(count, device=device) * max_blur
+    offsets = torch.arange(-2, 3, device=device, dtype=render.dtype)
+    kernel = torch.exp(-0.5 * (offsets[None] / sigma.clamp_min(1e-3)[:, None]) ** 2)
+    kernel = kernel / kernel.sum(dim=1, keepdim=True)  # (B, 5); sigma -> 0 gives the identity
+    image = torch.nn.functional.pad(moved["render"], (2, 2, 2, 2), mode="replicate")
+    image = sum(kernel[:, i, None, None, None] * image[..., i:i + image.shape[-2] - 4, :] for i in range(5))
+    image = sum(kernel[:, i, None, None, None] * image[..., i:i + image.shape[-1] - 4] for i in range(5))
+    noise = torch.randn_like(image) * (torch.rand(count, 1, 1, 1, device=device) * max_noise)
+    return {**batch, **moved, "render": (image + noise).clamp(0.0, 1.0)}
+
+
 def augment(batch: dict, max_shift: int = 3) -> dict:
     """Views the parameters do not change: each sample mirrored left-right with probability 1/2, then the whole batch
     shifted by up to `max_shift` px each way (wrapping); 'source' and 'render' (B, 3, H, W) move together."""
@@ -109,3 +138,9 @@ def augment(batch: dict, max_shift: int = 3) -> dict:
     dy, dx = (int(v) for v in torch.randint(-max_shift, max_shift + 1, (2,)))
     moved = {k: torch.roll(torch.where(mirrored, v.flip(-1), v), (dy, dx), dims=(-2, -1)) for k, v in images.items()}
     return {**batch, **moved}
+
+
+def encoder_views(batch: dict, config) -> dict:
+    """The views an encoder trains on, as its config asks: photo_views, then augment's mirrored and shifted ones."""
+    batch = photo_views(batch) if config.photo_views else batch
+    return augment(batch) if config.augment else batch

@@ -11,7 +11,7 @@ from vto_core.errors import VtoError
 from vto_core.specs import RendererSpec
 
 from .config import EncoderConfig, config_dict, with_epochs
-from .data import RenderDataset, augment, make_loader, per_process_batch, split, training_batches
+from .data import RenderDataset, encoder_views, make_loader, per_process_batch, split, training_batches
 from .distributed import Processes, processes
 from .losses import PerceptualDistance, graphics_loss, parameter_difference, weighted_total
 from .networks import Encoder, build
@@ -138,7 +138,7 @@ def _train_encoder(reader: DatasetReader, data: str, imitator_run: str | None, o
                                procs.rank, procs.world_size)
     model = procs.wrap(encoder)
     optimise(run, config, step, batches,
-             lambda batch: encoder_losses(model, imitator, perceptual, augment(batch) if config.augment else batch,
+             lambda batch: encoder_losses(model, imitator, perceptual, encoder_views(batch, config),
                                           runtime, wraps),
              optimiser, validate, save, procs)
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 pytestmark = pytest.mark.blender
-pytest.importorskip("bpy")
+bpy = pytest.importorskip("bpy")
 
 from blender_addon.commands import cmd_dataset  # noqa: E402
 from blender_addon.lipstick import render_lipstick  # noqa: E402
@@ -47,7 +47,7 @@ def test_two_runs_give_identical_files_and_the_loader_reads_them(tmp_path):
     assert np.allclose(get_spec("lipstick", "red,gloss").normalise(sample.raw), sample.unit, atol=1e-6)
     assert sample.record["values"]["sparkle_density"] == 0.0, "unmodelled parameters stay at their defaults"
     manifest = json.loads((tmp_path / "a" / "manifest.json").read_text())
-    assert manifest["blender_version"].startswith("4.5") and manifest["params"] == ["red", "gloss"]
+    assert manifest["blender_version"] == bpy.app.version_string and manifest["params"] == ["red", "gloss"]
 
 
 def test_sensitivity_renders_differ_only_through_parameter_j(tmp_path):
@@ -100,6 +100,23 @@ def test_kill_and_resume_yields_the_uninterrupted_files(tmp_path):
     done_before = len(list((out / "samples").glob("0*")))
     assert 2 <= done_before < n, "the kill must land mid-run for this test to mean anything"
     make(out, n)
+    assert tree_hashes(tmp_path / "clean") == tree_hashes(out)
+
+
+def test_killed_and_resumed_hair_dataset_equals_an_uninterrupted_one(tmp_path):
+    n, tiny = 6, ["--res", "16", "--samples", "2", "--params", "hue,shine", "--seed", "5", "--quiet"]
+    assert cmd_dataset(["hair", "--out", str(tmp_path / "clean"), "--n", str(n), *tiny]) == 0
+    out = tmp_path / "killed"
+    command = [sys.executable, "-m", "vto_core.cli", "dataset", "hair", "--out", str(out), "--n", str(n), *tiny]
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while time.time() < deadline and len(list((out / "samples").glob("0*"))) < 2:
+        time.sleep(0.05)
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait()
+    done_before = len(list((out / "samples").glob("0*")))
+    assert 2 <= done_before < n, "the kill must land mid-run for this test to mean anything"
+    assert cmd_dataset(["hair", "--out", str(out), "--n", str(n), *tiny]) == 0
     assert tree_hashes(tmp_path / "clean") == tree_hashes(out)
 
 

@@ -58,7 +58,8 @@ material = bpy.data.objects["Lips"].active_material
 report["match_op"] = sorted(bpy.ops.vto.match_from_photo(material=material.name, image_path=lips_png))
 (group,) = [n for n in material.node_tree.nodes if getattr(n, "node_tree", None) and n.node_tree.name == "VTO Lipstick"]
 report["written"] = {s.name: s.default_value for s in group.inputs if s.type == "VALUE"}
-report["hair_groups"] = sorted(n.node_tree.name for n in bpy.context.scene.node_tree.nodes
+compat = __import__("bl_ext.user_default.vto_match.compat", fromlist=["compositor_tree"])
+report["hair_groups"] = sorted(n.node_tree.name for n in compat.compositor_tree(bpy.context.scene).nodes
                                if getattr(n, "node_tree", None))
 import os, shutil
 os.makedirs(folder)

@@ -7,6 +7,7 @@ import pytest
 pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
+from blender_addon.compat import composite_output, compositor_idname, compositor_tree, set_exr_output  # noqa: E402
 from blender_addon.hair import HairSource, _stage_image, load_swatch, render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.render import configure_cycles, render_passes  # noqa: E402
 from vto_core.colour import recolour_swatch  # noqa: E402
@@ -85,28 +86,29 @@ def node_scene():
     camera = bpy.data.objects.new("VTO tooltip camera", bpy.data.cameras.new("VTO tooltip camera"))
     scene.collection.objects.link(camera)
     scene.camera = camera
-    scene.use_nodes = True
-    scene.node_tree.nodes.clear()
+    tree = compositor_tree(scene, create=True)
+    tree.nodes.clear()
     ramp = np.repeat(np.linspace(0.0, 1.0, 64, dtype=np.float32)[None, :, None], 3, axis=2)
-    scene.node_tree.nodes.new("CompositorNodeImage").image = _stage_image("VTO tooltip ramp", np.repeat(ramp, 4, 0))
+    tree.nodes.new("CompositorNodeImage").image = _stage_image("VTO tooltip ramp", np.repeat(ramp, 4, 0))
     configure_cycles(scene, 8, 1)
     scene.cycles.use_denoising = False
     scene.render.resolution_x, scene.render.resolution_y, scene.render.use_compositing = 64, 4, True
     settings = scene.render.image_settings
-    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGB"
+    set_exr_output(settings, multilayer=False)
+    settings.color_depth, settings.color_mode = "32", "RGB"
     yield scene, ramp[0]
     bpy.data.scenes.remove(scene)
 
 
 def _through_node(scene, kind, **inputs):
-    tree = scene.node_tree
+    tree = compositor_tree(scene)
     for node in [n for n in tree.nodes if n.bl_idname != "CompositorNodeImage"]:
         tree.nodes.remove(node)
     node = tree.nodes.new(kind)
     for name, value in inputs.items():
         node.inputs[name].default_value = value
     tree.links.new(tree.nodes[0].outputs["Image"], node.inputs[0])
-    tree.links.new(node.outputs[0], tree.nodes.new("CompositorNodeComposite").inputs["Image"])
+    tree.links.new(node.outputs[0], composite_output(tree))
     return np.clip(render_passes(scene)["Combined"][0, :, :3], 0, 1)
 
 
@@ -114,7 +116,7 @@ def _through_node(scene, kind, **inputs):
 def test_tooltip_brightness_contrast_equals_blenders_node(node_scene, brightness, contrast):
     scene, ramp = node_scene
     node_contrast = 100 * (1 - 1 / contrast) if contrast >= 1 else 100 * (contrast - 1)
-    blender = _through_node(scene, "CompositorNodeBrightContrast", Bright=100 * brightness / contrast,
+    blender = _through_node(scene, compositor_idname("BrightContrast"), Bright=100 * brightness / contrast,
                             Contrast=node_contrast)
     ours = recolour_swatch(ramp, brightness, contrast, 1.0, 1.0, 0.0, 1.0)
     assert np.abs(blender - ours).max() < 1e-5
@@ -125,13 +127,14 @@ def test_tooltip_brightness_contrast_equals_blenders_node(node_scene, brightness
 def test_tooltip_gamma_is_blenders_gamma_node_inverted(node_scene, gamma):
     scene, ramp = node_scene
     ours = recolour_swatch(ramp, 0.0, 1.0, 1.0, gamma, 0.0, 1.0)
-    assert np.abs(_through_node(scene, "CompositorNodeGamma", Gamma=1 / gamma) - ours).max() < 1e-5
-    assert np.abs(_through_node(scene, "CompositorNodeGamma", Gamma=gamma) - ours).max() > 0.1
+    assert np.abs(_through_node(scene, compositor_idname("Gamma"), Gamma=1 / gamma) - ours).max() < 1e-5
+    assert np.abs(_through_node(scene, compositor_idname("Gamma"), Gamma=gamma) - ours).max() > 0.1
 
 
 @pytest.mark.parametrize("factor", [0.5, 1.8])
 def test_tooltip_exposure_is_a_factor_not_stops(node_scene, factor):
     scene, ramp = node_scene
     ours = recolour_swatch(ramp, 0.0, 1.0, factor, 1.0, 0.0, 1.0)
-    assert np.abs(_through_node(scene, "CompositorNodeExposure", Exposure=float(np.log2(factor))) - ours).max() < 1e-5
-    assert np.abs(_through_node(scene, "CompositorNodeExposure", Exposure=factor) - ours).max() > 0.1
+    exposure = compositor_idname("Exposure")
+    assert np.abs(_through_node(scene, exposure, Exposure=float(np.log2(factor))) - ours).max() < 1e-5
+    assert np.abs(_through_node(scene, exposure, Exposure=factor) - ours).max() > 0.1

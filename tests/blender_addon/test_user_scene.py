@@ -10,6 +10,7 @@ import pytest
 pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
+from blender_addon.compat import EEVEE_ENGINE  # noqa: E402
 from blender_addon.lipstick import render_lipstick, scene_values, set_lipstick_values  # noqa: E402
 from blender_addon.dataset import DatasetJob  # noqa: E402
 from blender_addon.render import render_user_scene  # noqa: E402
@@ -52,6 +53,8 @@ if len(sys.argv) > 2:  # a value node drives Metallic
 bpy.context.object.data.materials.append(material)
 bpy.ops.object.camera_add(location=(0, 0, 3)); scene.camera = bpy.context.object
 world = bpy.data.worlds.new("white"); world.color = (1, 1, 1); scene.world = world
+if world.node_tree:  # Blender 5 worlds always render through their nodes
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (1, 1, 1, 1)
 bpy.ops.wm.save_as_mainfile(filepath=sys.argv[1])
 '''
 
@@ -161,7 +164,7 @@ def test_the_manifest_records_linked_inputs_and_an_eevee_scenes_samples(tmp_path
                           scene=scene.name).manifest()
     assert manifest["linked_inputs"] == ["metallic"] and "metallic" not in manifest["fixed_values"]
     assert manifest["samples"] == 3 and manifest["engine"] == "CYCLES"
-    scene.render.engine = "BLENDER_EEVEE_NEXT"
+    scene.render.engine = EEVEE_ENGINE
     scene.eevee.taa_render_samples = 5
     assert DatasetJob("lipstick", str(tmp_path / "ds"), 1, res=None, samples=None, params=["red"],
                       scene=scene.name).manifest()["samples"] == 5

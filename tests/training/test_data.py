@@ -1,4 +1,4 @@
-"""training.data.augment: the views keep source and render aligned and change no pixel value or parameter."""
+"""training.data views: augment keeps source and render aligned and every pixel value; photo_views keeps colour."""
 
 import pytest
 
@@ -27,3 +27,37 @@ def test_no_shift_keeps_or_mirrors_each_sample_exactly():
     mirrored = [torch.equal(v, r.flip(-1)) for v, r in zip(views, render)]
     kept = [torch.equal(v, r) for v, r in zip(views, render)]
     assert all(m or k for m, k in zip(mirrored, kept)) and 4 < sum(mirrored) < 28
+
+
+def test_photo_views_keep_a_constant_image_and_the_parameters():
+    from training.data import photo_views
+
+    colour = torch.tensor([0.8, 0.1, 0.2]).view(1, 3, 1, 1)
+    batch = {"render": colour.expand(6, 3, 16, 16).clone(), "g": torch.rand(6, 4)}
+    views = photo_views(batch, max_noise=0.0)
+    assert torch.allclose(views["render"], batch["render"], atol=1e-6)  # tilt, zoom and blur keep a flat colour
+    assert torch.equal(views["g"], batch["g"])
+    noisy = photo_views(batch, max_noise=0.05)["render"]
+    assert torch.isfinite(noisy).all() and 0 <= noisy.min() and noisy.max() <= 1
+    assert (noisy.mean(dim=(0, 2, 3)) - colour.view(3)).abs().max() < 0.01  # zero-mean noise
+
+
+def test_photo_views_move_source_and_render_together_and_blur_only_the_render():
+    from training.data import photo_views
+
+    torch.manual_seed(0)
+    image = torch.rand(4, 3, 24, 24)
+    views = photo_views({"source": image.clone(), "render": image.clone()}, max_blur=0.0, max_noise=0.0)
+    assert torch.allclose(views["source"], views["render"], atol=1e-6) and not torch.allclose(views["render"], image)
+    blurred = photo_views({"source": image.clone(), "render": image.clone()}, max_tilt=0.0, zoom=(1.0, 1.0),
+                          max_blur=1.0, max_noise=0.0)
+    assert torch.allclose(blurred["source"], image, atol=1e-5)  # no tilt or zoom: the identity grid
+    assert blurred["render"].std() < image.std()  # blur smooths the reference
+
+
+def test_photo_views_at_their_extremes_stay_finite():
+    from training.data import photo_views
+
+    for render in (torch.zeros(2, 3, 8, 8), torch.ones(2, 3, 8, 8)):
+        out = photo_views({"render": render}, max_tilt=3.1, zoom=(0.25, 4.0), max_blur=5.0, max_noise=1.0)["render"]
+        assert torch.isfinite(out).all() and out.shape == render.shape

@@ -1,0 +1,94 @@
+"""How the default lips scene's lighting decides the colour an encoder can learn (issue: "Match gives the shade").
+
+The same looks and sources rendered under each lighting (`vto dataset lipstick --seed S --lighting L`), packed with
+bench_encoder_scaling's `pack`, then one small CNN trained the same way on each (graphics loss, mirrored/shifted
+views, bench_encoder_scaling.train_once) for each training size. Reported on the held-out last --val looks: the
+median colour error in 8-bit steps (|R|, |G| and |B| errors pooled) on looks with opacity >= 0.5, and the mean
+errors of opacity, gloss and reflection as a share of their encoded ranges.
+
+    python -m benchmarks.bench_encoder_scaling pack --data data/lip64_wide --out wide.npz
+    python -m benchmarks.bench_encoder_scaling pack --data data/lip64_portrait --out portrait.npz
+    python -m benchmarks.bench_lighting --packed wide=wide.npz --packed portrait=portrait.npz --sizes 500,1000
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.bench_encoder_scaling import train_once
+from benchmarks.common import RESULTS, table, write_section
+
+OPAQUE = 0.5  # colour error is read on looks at least this opaque: a sheer look barely shows its colour
+
+
+def colour_and_other_errors(errors: np.ndarray, truth: np.ndarray, names: list[str]) -> dict[str, float]:
+    """errors, truth: (n, m) unit-range absolute errors and true unit values -> the reported figures."""
+    column = {name: i for i, name in enumerate(names)}
+    opaque = truth[:, column["opacity"]] >= OPAQUE if "opacity" in column else np.ones(len(truth), bool)
+    colour = errors[opaque][:, [column[c] for c in ("red", "green", "blue")]] * 255.0  # R, G, B span [0, 255]
+    figures = {"colour_median_255": float(np.median(colour)), "opaque_looks": int(opaque.sum())}
+    for name in ("opacity", "gloss", "reflection"):
+        if name in column:
+            figures[f"{name}_mae"] = float(errors[:, column[name]].mean())
+    return figures
+
+
+def run(packed: list[tuple[str, str]], sizes: list[int], steps: int, val: int, width: int, device: str,
+        results: Path) -> list[dict]:
+    """Train and measure each (lighting, size); write RESULTS/lighting.md; returns the rows as dicts."""
+    import torch
+
+    from vto_core.specs import RendererSpec
+
+    rows, found = [], []
+    for name, path in packed:
+        with np.load(path) as archive:
+            spec = RendererSpec.from_dict(json.loads(str(archive["spec"])))
+            renders = torch.from_numpy(archive["renders"]).permute(0, 3, 1, 2).contiguous().to(device)
+            units = torch.from_numpy(archive["units"]).to(device)
+            manifest = json.loads(str(archive["manifest"]))
+        wraps = torch.tensor([p.wraps for p in spec.modelled_params], device=device)
+        held_out = (renders[-val:], units[-val:])
+        for size in [n for n in sizes if n <= len(units) - val]:
+            figures = train_once((renders, units), held_out, wraps, size, width, steps, device)
+            result = {"lighting": name, "looks": size, **colour_and_other_errors(figures.pop("errors"),
+                                                                                  units[-val:].cpu().numpy(),
+                                                                                  list(spec.modelled)),
+                      "seconds": round(figures["seconds"], 1), "res": manifest["res"], "spp": manifest["samples"]}
+            print(json.dumps(result), flush=True)
+            found.append(result)
+            rows.append([name, size, f"{result['colour_median_255']:.1f}", f"{result.get('opacity_mae', 0):.3f}",
+                         f"{result.get('gloss_mae', 0):.3f}", f"{result.get('reflection_mae', 0):.3f}"])
+    first = found[0] if found else {"res": "?", "spp": "?"}
+    write_section("lighting", "lighting-colour", (
+        f"## Colour error against the lips scene's lighting ({first['res']} px, {first['spp']} spp)\n\n"
+        f"Same looks and sources under each lighting; one CNN (width {width}) per row, graphics loss, {steps} steps "
+        f"of batch 16, mirrored/shifted views; held-out: the last {val} looks of each set. Colour: median |error| of "
+        f"R, G and B in 8-bit steps on held-out looks with opacity >= {OPAQUE}; the others: mean |error| as a share "
+        f"of the encoded range.\n\n"
+        + table(["lighting", "training looks", "colour error /255", "opacity", "gloss", "reflection"], rows)
+        + "\n\nReproduce: see `python -m benchmarks.bench_lighting --help`."), results=results)
+    return found
+
+
+def main() -> None:
+    """python -m benchmarks.bench_lighting --packed NAME=FILE.npz ... [--sizes 500,1000] [--device cuda]."""
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--packed", action="append", required=True, metavar="LIGHTING=FILE.npz")
+    parser.add_argument("--sizes", default="1000,3500")
+    parser.add_argument("--steps", type=int, default=3000)
+    parser.add_argument("--val", type=int, default=300)
+    parser.add_argument("--width", type=int, default=32)
+    parser.add_argument("--device", default="cpu")
+    parser.add_argument("--results", default=str(RESULTS))
+    args = parser.parse_args()
+    run([tuple(item.split("=", 1)) for item in args.packed], [int(v) for v in args.sizes.split(",")], args.steps,
+        args.val, args.width, args.device, Path(args.results))
+
+
+if __name__ == "__main__":
+    main()
