@@ -13,8 +13,8 @@ from vto_core.params_io import parse_params
 from vto_core.specs import get_spec
 
 
-def render(renderer: str, values: dict[str, float], source, res: int = 64, samples: int = DEFAULT_SAMPLES, seed: int = 0,
-           lighting: str | None = None):
+def render(renderer: str, values: dict[str, float], source, res: int = 64, samples: int = DEFAULT_SAMPLES,
+           seed: int = 0, lighting: str | None = None):
     """R(X, g) for either renderer: (res, res, 3) display-sRGB float32; values are checked strictly.
 
     lighting: the default lips scene's, "wide" or "portrait" (None: the default); the hair scene has only its own.
@@ -28,7 +28,9 @@ def render(renderer: str, values: dict[str, float], source, res: int = 64, sampl
             raise VtoError(f"lipstick sources are seeds of the default lips scene (an integer), got '{source}'")
         return render_lipstick(values, int(source), res, samples, seed, lighting=lighting or DEFAULT_LIGHTING)
     if lighting is not None:
-        raise VtoError("--lighting chooses the default lips scene's light; the hair scene has its own")
+        from .lighting import ONLY_LIPS
+
+        raise VtoError(ONLY_LIPS)
     from .hair import render_hair
 
     return render_hair(values, source, res, samples, seed)

@@ -64,7 +64,9 @@ class DatasetJob:
 
             self.lighting = self.lighting or DEFAULT_LIGHTING
         elif self.lighting is not None:
-            raise VtoError("--lighting chooses the default lips scene's light; hair and a --blend scene keep their own")
+            from .lighting import ONLY_LIPS
+
+            raise VtoError(ONLY_LIPS)
 
     def manifest(self) -> dict:
         """What manifest.json records: identical for every shard and rerun of the same dataset."""

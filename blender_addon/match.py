@@ -58,7 +58,9 @@ class SourceRenderer:
         self.spec = get_spec(renderer)
         self.res, self.samples, self.seed, self.renders, self.lighting = res, samples, seed, 0, lighting
         if lighting is not None and renderer != "lipstick":
-            raise VtoError("a lighting is chosen for the default lips scene only; the hair scene has its own")
+            from .lighting import ONLY_LIPS
+
+            raise VtoError(ONLY_LIPS)
         seed_like = isinstance(source, (int, np.integer)) or str(source).isdigit()
         if renderer == "lipstick":
             if not seed_like:

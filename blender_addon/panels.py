@@ -141,14 +141,19 @@ class VTO_PT_match_material_cycles(MaterialMatch, bpy.types.Panel):
     bl_parent_id = "CYCLES_PT_context_material"
 
 
-class VTO_PT_match_shader(bpy.types.Panel):
-    """Match from photo in the Shader Editor's sidebar (VTO tab), for the material being edited"""
+class SidebarPanel:
+    """A node editor sidebar panel in the VTO tab."""
 
     bl_label = "Match from photo"
-    bl_idname = "VTO_PT_match_shader"
     bl_space_type = "NODE_EDITOR"
     bl_region_type = "UI"
     bl_category = "VTO"
+
+
+class VTO_PT_match_shader(SidebarPanel, bpy.types.Panel):
+    """Match from photo in the Shader Editor's sidebar (VTO tab), for the material being edited"""
+
+    bl_idname = "VTO_PT_match_shader"
 
     @classmethod
     def poll(cls, context):
@@ -161,14 +166,10 @@ class VTO_PT_match_shader(bpy.types.Panel):
         draw_match(self.layout, context, material.vto_match, "lipstick", "MATERIAL", material.name)
 
 
-class VTO_PT_match_hair(bpy.types.Panel):
+class VTO_PT_match_hair(SidebarPanel, bpy.types.Panel):
     """Match from photo for the scene's VTO hair compositor groups"""
 
-    bl_label = "Match from photo"
     bl_idname = "VTO_PT_match_hair"
-    bl_space_type = "NODE_EDITOR"
-    bl_region_type = "UI"
-    bl_category = "VTO"
 
     @classmethod
     def poll(cls, context):

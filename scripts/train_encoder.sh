@@ -3,17 +3,18 @@
 #   scripts/train_encoder.sh lipstick|hair      -> blender_addon/models/<renderer>_encoder.onnx
 # Graphics loss (the paper's MIG baseline: no imitator at 64 px yet) with mirrored/shifted views, cosine lr.
 # CPU: about an hour of rendering (2 cores) and 10-15 minutes of training; add --device cuda to the train line
-# on a GPU. Environment: N (looks), STEPS (optimiser steps).
+# on a GPU. Environment: N (looks), STEPS (optimiser steps), WORKERS (render processes).
+# Lipstick renders the default lips scene under its default (portrait) lighting.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VTO=.venv/bin/vto
 RENDERER=${1:?usage: scripts/train_encoder.sh lipstick|hair}
 case $RENDERER in
-  lipstick) DATA=out/data/lip64b SEED=202 ;;
-  hair) DATA=out/data/hair64 SEED=301 ;;
+  lipstick) DATA=out/data/lip64p SEED=31 LOOKS=6000 ;;
+  hair) DATA=out/data/hair64 SEED=301 LOOKS=5000 ;;
   *) echo "usage: scripts/train_encoder.sh lipstick|hair" >&2; exit 2 ;;
 esac
-$VTO dataset "$RENDERER" --out "$DATA" --n "${N:-5000}" --seed "$SEED"
+$VTO dataset "$RENDERER" --out "$DATA" --n "${N:-$LOOKS}" --seed "$SEED" --workers "${WORKERS:-2}"
 $VTO train encoder --data "$DATA" --out "out/runs/${RENDERER}_encoder" --set loss=graphics --set augment=true \
     --set steps="${STEPS:-6000}" --set lr=0.001 --set schedule=cosine --set warmup_steps=100 \
     --set log_every=250 --set checkpoint_every=1000

@@ -60,11 +60,13 @@ def main() -> None:
     """Estimate each renderer's parameters from its crop and render them beside it."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", default="out/real")
-    out = Path(parser.parse_args().out)
+    parser.add_argument("--lipstick-model", default=str(MODELS / "lipstick_encoder.onnx"))
+    args = parser.parse_args()
+    out = Path(args.out)
     photo = skimage.data.astronaut().astype(np.float32) / 255
     rows, estimates = [], {}
     for renderer, (rows_slice, cols_slice) in CROPS.items():
-        model = MODELS / f"{renderer}_encoder.onnx"
+        model = Path(args.lipstick_model) if renderer == "lipstick" else MODELS / f"{renderer}_encoder.onnx"
         if not model.exists():
             continue
         crop = photo[rows_slice, cols_slice]

@@ -86,11 +86,9 @@ def test_rerun_renders_only_missing_samples(tmp_path):
     assert tree_hashes(samples / "0000001") == removed
 
 
-def test_kill_and_resume_yields_the_uninterrupted_files(tmp_path):
-    n = 8
-    make(tmp_path / "clean", n)
-    out = tmp_path / "killed"
-    command = [sys.executable, "-m", "vto_core.cli", "dataset", "lipstick", "--out", str(out), "--n", str(n), *TINY]
+def kill_midway(out, argv: list[str], n: int) -> None:
+    """Start `vto dataset ARGV --out OUT` in its own process and SIGKILL it once 2 of its n samples are done."""
+    command = [sys.executable, "-m", "vto_core.cli", "dataset", *argv, "--out", str(out)]
     process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
     while time.time() < deadline and len(list((out / "samples").glob("0*"))) < 2:
@@ -99,25 +97,22 @@ def test_kill_and_resume_yields_the_uninterrupted_files(tmp_path):
     process.wait()
     done_before = len(list((out / "samples").glob("0*")))
     assert 2 <= done_before < n, "the kill must land mid-run for this test to mean anything"
-    make(out, n)
-    assert tree_hashes(tmp_path / "clean") == tree_hashes(out)
+
+
+def test_kill_and_resume_yields_the_uninterrupted_files(tmp_path):
+    n = 8
+    make(tmp_path / "clean", n)
+    kill_midway(tmp_path / "killed", ["lipstick", "--n", str(n), *TINY], n)
+    make(tmp_path / "killed", n)
+    assert tree_hashes(tmp_path / "clean") == tree_hashes(tmp_path / "killed")
 
 
 def test_killed_and_resumed_hair_dataset_equals_an_uninterrupted_one(tmp_path):
     n, tiny = 6, ["--res", "16", "--samples", "2", "--params", "hue,shine", "--seed", "5", "--quiet"]
     assert cmd_dataset(["hair", "--out", str(tmp_path / "clean"), "--n", str(n), *tiny]) == 0
-    out = tmp_path / "killed"
-    command = [sys.executable, "-m", "vto_core.cli", "dataset", "hair", "--out", str(out), "--n", str(n), *tiny]
-    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.time() + 120
-    while time.time() < deadline and len(list((out / "samples").glob("0*"))) < 2:
-        time.sleep(0.05)
-    os.kill(process.pid, signal.SIGKILL)
-    process.wait()
-    done_before = len(list((out / "samples").glob("0*")))
-    assert 2 <= done_before < n, "the kill must land mid-run for this test to mean anything"
-    assert cmd_dataset(["hair", "--out", str(out), "--n", str(n), *tiny]) == 0
-    assert tree_hashes(tmp_path / "clean") == tree_hashes(out)
+    kill_midway(tmp_path / "killed", ["hair", "--n", str(n), *tiny], n)
+    assert cmd_dataset(["hair", "--out", str(tmp_path / "killed"), "--n", str(n), *tiny]) == 0
+    assert tree_hashes(tmp_path / "clean") == tree_hashes(tmp_path / "killed")
 
 
 def test_two_workers_make_the_same_files(tmp_path):

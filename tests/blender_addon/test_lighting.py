@@ -109,7 +109,7 @@ def test_the_commands_take_a_lighting_and_the_dataset_records_it(tmp_path, capsy
     capsys.readouterr()
     assert cli.run(["render", "hair", "--params", "{}", "--lighting", "wide", "--out", str(tmp_path / "h.png")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "the hair scene has its own" in err[0] and not (tmp_path / "h.png").exists()
+    assert len(err) == 1 and "keep their own" in err[0] and not (tmp_path / "h.png").exists()
     assert cli.run(["dataset", "lipstick", "--out", str(tmp_path / "data"), "--n", "1", "--res", "16", "--samples",
                     "2", "--lighting", "wide", "--quiet"]) == 0
     assert read_manifest(tmp_path / "data")["lighting"] == "wide"

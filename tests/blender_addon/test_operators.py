@@ -304,8 +304,10 @@ def test_bad_input_reports_one_line_and_changes_nothing(kwargs, message, materia
 
 
 def test_a_material_without_the_group_or_with_a_linked_input_changes_nothing(reference):
+    from blender_addon.compat import enable_nodes
+
     plain = bpy.data.materials.new("Plain VTO Test")
-    plain.use_nodes = True
+    enable_nodes(plain)
     result, error = run_match(material=plain.name, image_path=reference)
     assert result == {"CANCELLED"} and "does not use the 'VTO Lipstick' node group" in error
     obj = new_mesh("Linked Lips")
