@@ -48,3 +48,19 @@ def parameter_visibility(render: Callable[[dict[str, float], int], np.ndarray], 
     low, high = quartile_values(param)
     low_values, high_values = {**base, param.name: low}, {**base, param.name: high}
     return visibility_ratio(render(low_values, 0), render(high_values, 1), render(low_values, 1), block, mask)
+
+
+def step_visibility(render: Callable[[dict[str, float], int], np.ndarray], param: ParamSpec, base: dict[str, float],
+                    points: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0), block: int = 4,
+                    mask: np.ndarray | None = None) -> list[float]:
+    """visibility_ratio of each step of `param` between consecutive unit-space `points` on top of `base`.
+
+    Equal steps of an encoded parameter should be about equally visible; a list that falls along the range says
+    that the encoding spends its top on changes the render cannot show. Three renders a step, as parameter_visibility.
+    """
+    ratios = []
+    for low_unit, high_unit in zip(points, points[1:]):
+        low = {**base, param.name: param.from_unit(low_unit)}
+        high = {**base, param.name: param.from_unit(high_unit)}
+        ratios.append(visibility_ratio(render(low, 0), render(high, 1), render(low, 1), block, mask))
+    return ratios
