@@ -12,9 +12,9 @@ import numpy as np
 
 from vto_core.colour import srgb_to_linear
 
-from .compat import enable_nodes
 from vto_core.errors import VtoError
 
+from .compat import enable_nodes
 from .lighting import LIGHTINGS, build_hdri_world, randomise_hdri, randomise_portrait
 from .nodes_lipstick import lipstick_material
 
@@ -194,11 +194,13 @@ def use_lighting(scene: bpy.types.Scene, lighting: str) -> None:
         scene.pop("vto_source_seed", None)  # the next render applies its source again, lit the new way
 
 
-def lips_mask(source_seed: int, res: int) -> np.ndarray:
-    """Where the lips are in a res x res render of the default scene with `source_seed`: (res, res) bool."""
+def lips_mask(source_seed: int, res: int, lighting: str = DEFAULT_LIGHTING) -> np.ndarray:
+    """Where the lips are in a res x res render of the default scene with `source_seed`, lit the `lighting` way (the
+    camera's jitter is drawn after the light): (res, res) bool."""
     from .render import configure_cycles, render_passes
 
     scene = build_lips_scene()
+    use_lighting(scene, lighting)
     if scene.get("vto_source_seed") != int(source_seed):
         apply_source(scene, int(source_seed))
     configure_cycles(scene, res, 1, 0)

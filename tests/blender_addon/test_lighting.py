@@ -79,7 +79,7 @@ def test_portrait_lighting_shows_a_shade_alike_on_every_source():
             colours = []
             for source in range(8):
                 image = render_lipstick(presets[look], source, 32, 4, 0, lighting=lighting)
-                colours.append(image[lips_mask(source, 32)].mean(axis=0))
+                colours.append(image[lips_mask(source, 32, lighting)].mean(axis=0))
             seen.append(np.std(colours, axis=0).mean())
         spread[lighting] = float(np.mean(seen)) * 255
     assert spread["portrait"] < 0.8 * spread["wide"], spread
