@@ -101,6 +101,9 @@ def cmd_dataset(argv: list[str]) -> int:
     parser.add_argument("--params", default=None, help="comma-separated parameters to model (default: the spec's); "
                                                           "'auto' with --blend: those that visibly change the scene")
     parser.add_argument("--sensitivity", action="store_true", help="also render R(X, g'_j) for each modelled j")
+    parser.add_argument("--no-source", action="store_true",
+                        help="write no source image X (lipstick: render none): half the renders of a look, for "
+                             "encoder data trained with the graphics loss only (the imitator needs X)")
     parser.add_argument("--uniform-ratio", type=float, default=0.5, help="share of uniform draws vs the preset fit")
     parser.add_argument("--source-folder", default=None, help="hair: photos with <name>_mask beside them")
     parser.add_argument("--blend", default=None, help="lipstick: a .blend whose active scene uses the VTO Lipstick group")
@@ -134,7 +137,7 @@ def cmd_dataset(argv: list[str]) -> int:
             raise VtoError(f"no lipstick input visibly changes {args.blend}: nothing to model")
     shard = parse_shard(args.shard) if args.shard else shard_from_env()
     job = DatasetJob(args.renderer, args.out, args.n, args.seed, args.res, args.samples, params, args.sensitivity,
-                     args.uniform_ratio, args.source_folder, scene, args.lighting)
+                     args.uniform_ratio, args.source_folder, scene, args.lighting, not args.no_source)
     indices = shard_range(job.n, shard)
     if args.worker is not None:  # one of run_workers' processes: its share of the shard, then exit
         run_in_process(job, worker_indices(indices, parse_shard(args.worker)), args.limit, quiet=True)

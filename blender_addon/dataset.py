@@ -41,6 +41,7 @@ class DatasetJob:
     source_folder: str | None = None  # hair: photos with masks instead of the default scene
     scene: str | None = None  # lipstick: render this scene of the open .blend instead of the default
     lighting: str | None = None  # lipstick, default scene: "wide" or "portrait" (scene_lips; None: its default)
+    source_images: bool = True  # False: no X written (and for lipstick none rendered): graphics-loss encoder data
     spec: RendererSpec = field(init=False)
 
     def __post_init__(self):
@@ -59,6 +60,8 @@ class DatasetJob:
         if self.source_folder is not None and not Path(self.source_folder).is_dir():
             raise VtoError(f"--source-folder {self.source_folder} is not a folder")
         self.spec = get_spec(self.renderer, self.params)
+        if self.sensitivity and not self.source_images:
+            raise VtoError("--sensitivity renders are for the imitator, which needs the source images: drop --no-source")
         if self.renderer == "lipstick" and self.scene is None:
             from .scene_lips import DEFAULT_LIGHTING
 
@@ -72,6 +75,8 @@ class DatasetJob:
         """What manifest.json records: identical for every shard and rerun of the same dataset."""
         settings = {k: v for k, v in asdict(self).items() if k not in ("out", "spec")}
         settings["params"] = list(self.spec.modelled)
+        if self.source_images:  # recorded only when left out, so datasets made before the option still resume
+            del settings["source_images"]
         images = "16-bit PNG, display sRGB (Standard view transform)"
         if self.scene is not None:  # a user's scene: its own settings where no flag overrode them, its own values
             scene = bpy.data.scenes[self.scene]
@@ -138,7 +143,8 @@ class SampleRenderer:
             source_image, images, extra = self._hair(source, cycles_seed, values)
         writer = SampleWriter(Path(job.out), index)
         try:
-            writer.image("source", source_image)
+            if job.source_images:
+                writer.image("source", source_image)
             writer.image("render", images[0])
             for j, image in enumerate(images[1:]):
                 writer.image(f"sens_{j:02d}", image)
@@ -153,7 +159,7 @@ class SampleRenderer:
         except BaseException:
             writer.abort()
             raise
-        return len(images) + (job.renderer == "lipstick")
+        return len(images) + (source_image is not None and job.renderer == "lipstick")
 
     def _lipstick(self, source: int, cycles_seed: int, values: list[dict]):
         from .lipstick import render_lipstick
@@ -164,7 +170,7 @@ class SampleRenderer:
             return render_lipstick(v, source, job.res, job.samples, cycles_seed, scene=self.user_scene,
                                    lighting=job.lighting)
 
-        bare = draw({**values[0], "opacity": 0.0})
+        bare = draw({**values[0], "opacity": 0.0}) if job.source_images else None
         return bare, [draw(v) for v in values], {}
 
     def _hair(self, source: int, cycles_seed: int, values: list[dict]):
@@ -201,8 +207,8 @@ def progress_bar(samples: int, renders_per_sample: int, quiet: bool = False):
 
 
 def renders_per_sample(job: DatasetJob) -> int:
-    """R(X, .) renders each sample costs (lipstick also renders X)."""
-    return 1 + (job.spec.size if job.sensitivity else 0) + (job.renderer == "lipstick")
+    """R(X, .) renders each sample costs (lipstick also renders X, unless it is left out)."""
+    return 1 + (job.spec.size if job.sensitivity else 0) + (job.renderer == "lipstick" and job.source_images)
 
 
 def run_in_process(job: DatasetJob, indices, limit: int | None = None, quiet: bool = False) -> int:

@@ -20,12 +20,16 @@ def _chw(image: np.ndarray) -> torch.Tensor:
 
 
 class RenderDataset(Dataset):
-    """Samples of a dataset folder as dicts of tensors: source, render, g (unit) and, if present, sensitivity."""
+    """Samples of a dataset folder as dicts of tensors: source (where the dataset has them), render, g (unit) and,
+    if asked for, sensitivity."""
 
     def __init__(self, reader: DatasetReader, positions: list[int], need_sensitivity: bool = False,
-                 cache_bytes: float = CACHE_BYTES):
+                 cache_bytes: float = CACHE_BYTES, need_source: bool = True):
         if need_sensitivity and not reader.manifest["sensitivity"]:
             raise VtoError(f"{reader.root} has no sensitivity renders; make it with `vto dataset ... --sensitivity`")
+        if need_source and not reader.has_sources:
+            raise VtoError(f"{reader.root} was made with --no-source: it has no source images X, which the imitator "
+                           "and the rendering loss need (train the encoder with --set loss=graphics)")
         self.reader, self.positions, self.need_sensitivity = reader, positions, need_sensitivity
         res = reader.manifest["res"]
         images_per_sample = 2 + (reader.spec.size if need_sensitivity else 0)
@@ -39,7 +43,9 @@ class RenderDataset(Dataset):
         if self.cache is not None and item in self.cache:
             return self.cache[item]
         sample = self.reader[self.positions[item]]
-        batch = {"source": _chw(sample.source), "render": _chw(sample.render), "g": torch.from_numpy(sample.unit)}
+        batch = {"render": _chw(sample.render), "g": torch.from_numpy(sample.unit)}
+        if sample.source is not None:
+            batch["source"] = _chw(sample.source)
         if self.need_sensitivity:
             batch["moved_render"] = torch.stack([_chw(image) for image in sample.sensitivity])  # (m, 3, H, W)
             batch["moved_g"] = torch.from_numpy(sample.sensitivity_unit)  # (m, m)

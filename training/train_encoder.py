@@ -47,13 +47,13 @@ def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: 
     The log holds each term unweighted and `<term>_weighted` (as it enters the total), and the total.
     """
     device = config.device
-    source, render, g = (batch[k].to(device) for k in ("source", "render", "g"))
+    render, g = batch["render"].to(device), batch["g"].to(device)
     g_hat = encoder(render)
     terms = {}  # name -> (unweighted value, weight)
     if config.loss in ("graphics", "both"):
         terms["graphics"] = (graphics_loss(g, g_hat, wraps), 1.0)
     if config.loss in ("rendering", "both"):
-        terms["rendering"] = (perceptual(imitator(source, g_hat), render), config.lambda_rendering)
+        terms["rendering"] = (perceptual(imitator(batch["source"].to(device), g_hat), render), config.lambda_rendering)
     return weighted_total(terms)
 
 
@@ -100,8 +100,9 @@ def _train_encoder(reader: DatasetReader, data: str, imitator_run: str | None, o
     procs.barrier()
     runtime = dataclasses.replace(config, device=device)  # this process's device (cuda:LOCAL_RANK under torchrun)
     torch.manual_seed(config.seed)
-    train_set = RenderDataset(reader, train_positions)
-    val_loader = (make_loader(RenderDataset(reader, val_positions), config.batch_size, 0, shuffle=False)
+    train_set = RenderDataset(reader, train_positions, need_source=use_rendering)
+    val_loader = (make_loader(RenderDataset(reader, val_positions, need_source=False), config.batch_size, 0,
+                              shuffle=False)
                   if val_positions and procs.is_main else None)
 
     # 2. Encoder, perceptual distance, optimiser; resume (weights, optimiser and the data order).

@@ -4,7 +4,8 @@ Layout of a dataset folder DIR:
 
     DIR/manifest.json               renderer, spec, res, samples, seed, n, sensitivity, versions (no shard, no time)
     DIR/samples/0000042/            one folder per finished sample, renamed into place when complete
-        source.png                  X: the source, 16-bit PNG, display sRGB
+        source.png                  X: the source, 16-bit PNG, display sRGB (not with --no-source:
+                                    manifest "source_images": false)
         render.png                  R(X, g)
         sens_00.png ... sens_MM.png R(X, g'_j) for each modelled j (with --sensitivity)
         mask.png                    hair only: the hair mask X came with
@@ -163,7 +164,7 @@ class Sample:
     """One sample read back: images (H, W, 3) float32, vectors in the spec's order."""
 
     index: int
-    source: np.ndarray
+    source: np.ndarray | None  # None in a dataset made without source images (manifest "source_images": false)
     render: np.ndarray
     unit: np.ndarray  # (m,) normalised g
     raw: np.ndarray  # (m,) raw g
@@ -182,6 +183,7 @@ class DatasetReader:
         if self.manifest.get("format_version") != FORMAT_VERSION:
             raise VtoError(f"{root}: dataset format {self.manifest.get('format_version')}, this reader reads {FORMAT_VERSION}")
         self.spec: RendererSpec = RendererSpec.from_dict(self.manifest["spec"])
+        self.has_sources: bool = self.manifest.get("source_images", True)
         self.indices = sorted(finished_indices(self.root))
 
     def __len__(self) -> int:
@@ -199,6 +201,7 @@ class DatasetReader:
             sensitivity_unit = np.array(record["sensitivity_unit"], np.float32)
         if (folder / "mask.png").exists():
             mask = read_image(folder / "mask.png")[0][..., 0]
-        return Sample(index, read_image(folder / "source.png")[0], read_image(folder / "render.png")[0],
+        source = read_image(folder / "source.png")[0] if self.has_sources else None
+        return Sample(index, source, read_image(folder / "render.png")[0],
                       np.array(record["unit"], np.float32), np.array(record["raw"]), sensitivity, sensitivity_unit,
                       mask, record)

@@ -196,3 +196,26 @@ def test_hair_dataset_from_a_photo_folder(tmp_path):
         assert np.abs(sample.source - read_image(photo)[0]).max() < 1e-4
         assert sample.mask is not None and sample.mask.max() == 1.0
         assert sample.sensitivity.shape == (2, 16, 16, 3)
+
+
+def test_no_source_skips_the_x_render_and_keeps_every_other_byte(tmp_path, capsys):
+    """--no-source: the same renders and parameters as a full dataset, no source.png, one render fewer a look."""
+    make(tmp_path / "full", 3)
+    make(tmp_path / "lean", 3, "--no-source")
+    full, lean = tree_hashes(tmp_path / "full"), tree_hashes(tmp_path / "lean")
+    assert {k: v for k, v in full.items() if not k.endswith("source.png") and k != "manifest.json"} == \
+        {k: v for k, v in lean.items() if k != "manifest.json"}
+    assert not any(k.endswith("source.png") for k in lean) and sum(k.endswith("source.png") for k in full) == 3
+    reader = DatasetReader(tmp_path / "lean")
+    assert reader.manifest["source_images"] is False and not reader.has_sources and reader[0].source is None
+    assert "source_images" not in DatasetReader(tmp_path / "full").manifest  # datasets made before still resume
+    assert cli.run(["dataset", "lipstick", "--out", str(tmp_path / "bad"), "--n", "2", "--no-source",
+                    "--sensitivity", *TINY]) == 2
+    assert "--sensitivity renders are for the imitator" in capsys.readouterr().err
+
+
+def test_no_source_counts_one_render_a_lipstick_look():
+    from blender_addon.dataset import DatasetJob, renders_per_sample
+
+    assert renders_per_sample(DatasetJob("lipstick", "x", 1)) == 2
+    assert renders_per_sample(DatasetJob("lipstick", "x", 1, source_images=False)) == 1

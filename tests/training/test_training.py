@@ -232,3 +232,20 @@ def test_the_encoder_refuses_an_imitator_for_another_spec_or_size(lipstick_datas
         load_frozen_imitator(str(imitator_run), get_spec("hair"), "cpu", [16, 16])
     with pytest.raises(VtoError, match=r"trained on \[16, 16\] images, this dataset has \[64, 64\]"):
         load_frozen_imitator(str(imitator_run), spec, "cpu", [64, 64])
+
+
+def test_an_encoder_trains_on_a_dataset_without_sources_and_the_imitator_refuses_it(imitator_run, tmp_path):
+    from blender_addon.commands import cmd_dataset
+
+    data = tmp_path / "lean"  # the imitator's spec and size, so only the missing sources can refuse it
+    assert cmd_dataset(["lipstick", "--out", str(data), "--n", "12", "--res", "16", "--samples", "1", "--params",
+                        "opacity,red,green,blue", "--no-source", "--quiet"]) == 0
+    run = train_encoder(str(data), None, str(tmp_path / "encoder"),
+                        resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=20", "loss=graphics"]))
+    assert np.isfinite(run.read_log()[-1]["val_param_mse"])
+    with pytest.raises(VtoError, match="made with --no-source"):
+        train_imitator(str(data), str(tmp_path / "imitator"), imitator_config("steps=2", "use_sensitivity=false"))
+    with pytest.raises(VtoError, match="made with --no-source"):
+        train_encoder(str(data), str(imitator_run), str(tmp_path / "both"),
+                      resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=2", "loss=rendering"]))
+    assert not (tmp_path / "imitator").exists()
