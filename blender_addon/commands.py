@@ -22,11 +22,10 @@ def render(renderer: str, values: dict[str, float], source, res: int = 64, sampl
     values = get_spec(renderer).check_values(values)
     if renderer == "lipstick":
         from .lipstick import render_lipstick
-        from .scene_lips import DEFAULT_LIGHTING
 
         if not (isinstance(source, int) or str(source).isdigit()):
             raise VtoError(f"lipstick sources are seeds of the default lips scene (an integer), got '{source}'")
-        return render_lipstick(values, int(source), res, samples, seed, lighting=lighting or DEFAULT_LIGHTING)
+        return render_lipstick(values, int(source), res, samples, seed, lighting=lighting)
     if lighting is not None:
         from .lighting import ONLY_LIPS
 

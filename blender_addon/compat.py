@@ -84,12 +84,12 @@ def set_gaussian_blur(node) -> None:
 
 def set_exr_output(settings: bpy.types.ImageFormatSettings, multilayer: bool) -> None:
     """Render to a (multilayer) EXR; 5.0 picks multilayer through the media type."""
-    if HAS_MEDIA_TYPE:
-        settings.media_type = "MULTI_LAYER_IMAGE" if multilayer else "IMAGE"
-        if not multilayer:
-            settings.file_format = "OPEN_EXR"
+    if not multilayer:
+        set_file_format(settings, "OPEN_EXR")
+    elif HAS_MEDIA_TYPE:
+        settings.media_type = "MULTI_LAYER_IMAGE"
     else:
-        settings.file_format = "OPEN_EXR_MULTILAYER" if multilayer else "OPEN_EXR"
+        settings.file_format = "OPEN_EXR_MULTILAYER"
 
 
 def set_file_format(settings: bpy.types.ImageFormatSettings, file_format: str) -> None:

@@ -78,10 +78,8 @@ class SourceRenderer:
         self.renders += 1
         if self.hair is None:
             from .lipstick import render_lipstick
-            from .scene_lips import DEFAULT_LIGHTING
 
-            return render_lipstick(values, self.source, self.res, self.samples, self.seed,
-                                   lighting=self.lighting or DEFAULT_LIGHTING)
+            return render_lipstick(values, self.source, self.res, self.samples, self.seed, lighting=self.lighting)
         from .hair import run_hair_stage
 
         return run_hair_stage(self.hair, values)

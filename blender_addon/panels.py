@@ -79,10 +79,11 @@ def draw_match(layout, context, props, renderer: str, target: str, material_name
     """The shared body: reference, crop, mask, model, quality, Match, and the values last written."""
     column = split_column(layout)
     draw_reference(column, props, f"{target}:{material_name}")
-    model = apply.resolve_model(renderer, props.model_path, preference_model(context, renderer))
+    preference = preference_model(context, renderer)
+    model = apply.resolve_model(renderer, props.model_path, preference)
     try:
         column.prop(props, "model_path", text="Model", placeholder=f"{model.stem} (shipped)"
-                    if not (props.model_path or preference_model(context, renderer)) else model.stem)
+                    if not (props.model_path or preference) else model.stem)
     except TypeError:  # no placeholder before Blender 4.1
         column.prop(props, "model_path", text="Model")
     problem = warmup.problem(model) if model.is_file() else f"no model file {model.name}"

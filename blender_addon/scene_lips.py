@@ -185,8 +185,10 @@ def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
     scene["vto_source_seed"] = int(source_seed)
 
 
-def use_lighting(scene: bpy.types.Scene, lighting: str) -> None:
-    """Light the default lips scene's sources the `lighting` way from now on ("wide" or "portrait", lighting.py)."""
+def use_lighting(scene: bpy.types.Scene, lighting: str | None = None) -> None:
+    """Light the default lips scene's sources the `lighting` way from now on ("wide" or "portrait", lighting.py;
+    None: DEFAULT_LIGHTING)."""
+    lighting = lighting or DEFAULT_LIGHTING
     if lighting not in LIGHTINGS:
         raise VtoError(f"lighting is {' or '.join(LIGHTINGS)}, got '{lighting}'")
     if scene.get("vto_lighting", DEFAULT_LIGHTING) != lighting:
@@ -194,7 +196,7 @@ def use_lighting(scene: bpy.types.Scene, lighting: str) -> None:
         scene.pop("vto_source_seed", None)  # the next render applies its source again, lit the new way
 
 
-def lips_mask(source_seed: int, res: int, lighting: str = DEFAULT_LIGHTING) -> np.ndarray:
+def lips_mask(source_seed: int, res: int, lighting: str | None = None) -> np.ndarray:
     """Where the lips are in a res x res render of the default scene with `source_seed`, lit the `lighting` way (the
     camera's jitter is drawn after the light): (res, res) bool."""
     from .render import configure_cycles, render_passes
