@@ -9,6 +9,7 @@ errors of opacity, gloss and reflection as a share of their encoded ranges.
     python -m benchmarks.bench_encoder_scaling pack --data data/lip64_wide --out wide.npz
     python -m benchmarks.bench_encoder_scaling pack --data data/lip64_portrait --out portrait.npz
     python -m benchmarks.bench_lighting --packed wide=wide.npz --packed portrait=portrait.npz --sizes 500,1000
+    python -m benchmarks.bench_lighting --packed portrait=p24k.npz --sizes 3000,24000 --section lighting-looks
 """
 
 from __future__ import annotations
@@ -38,8 +39,8 @@ def colour_and_other_errors(errors: np.ndarray, truth: np.ndarray, names: list[s
 
 
 def run(packed: list[tuple[str, str]], sizes: list[int], steps: int, val: int, width: int, device: str,
-        results: Path) -> list[dict]:
-    """Train and measure each (lighting, size); write RESULTS/lighting.md; returns the rows as dicts."""
+        results: Path, section: str = "lighting-colour") -> list[dict]:
+    """Train and measure each (lighting, size); write `section` of RESULTS/lighting.md; returns the rows as dicts."""
     import torch
 
     from vto_core.specs import RendererSpec
@@ -64,8 +65,8 @@ def run(packed: list[tuple[str, str]], sizes: list[int], steps: int, val: int, w
             rows.append([name, size, f"{result['colour_median_255']:.1f}", f"{result.get('opacity_mae', 0):.3f}",
                          f"{result.get('gloss_mae', 0):.3f}", f"{result.get('reflection_mae', 0):.3f}"])
     first = found[0] if found else {"res": "?", "spp": "?"}
-    write_section("lighting", "lighting-colour", (
-        f"## Colour error against the lips scene's lighting ({first['res']} px, {first['spp']} spp)\n\n"
+    write_section("lighting", section, (
+        f"## Colour error against the lips scene's lighting and the looks ({first['res']} px, {first['spp']} spp)\n\n"
         f"Same looks and sources under each lighting; one CNN (width {width}) per row, graphics loss, {steps} steps "
         f"of batch 16, mirrored/shifted views; held-out: the last {val} looks of each set. Colour: median |error| of "
         f"R, G and B in 8-bit steps on held-out looks with opacity >= {OPAQUE}; the others: mean |error| as a share "
@@ -85,9 +86,10 @@ def main() -> None:
     parser.add_argument("--width", type=int, default=32)
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--results", default=str(RESULTS))
+    parser.add_argument("--section", default="lighting-colour", help="the section of lighting.md to (re)write")
     args = parser.parse_args()
     run([tuple(item.split("=", 1)) for item in args.packed], [int(v) for v in args.sizes.split(",")], args.steps,
-        args.val, args.width, args.device, Path(args.results))
+        args.val, args.width, args.device, Path(args.results), args.section)
 
 
 if __name__ == "__main__":

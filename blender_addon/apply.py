@@ -9,7 +9,7 @@ Settings are a plain dict (glTF-Blender-IO style), so the panel, the operator's 
 all feed the same function:
     image_path | image_name     the reference: a file, or an image datablock already in the .blend
     crop                        (x, y, w, h) from the top-left: pixels, or fractions when all four are <= 1; or None
-    mask_path                   an image whose > 0.5 region is the lips (the reference is cropped to it) or the
+    mask_path                   an image whose > 0.5 region is the lips (the reference is framed around it) or the
                                 hair (the photo's hair for refinement: Better / Best)
     model_path                  the encoder; "" = the add-on preferences' path, else the shipped default
     quality                     FAST (encoder only), BETTER (render:25), BEST (render:100)

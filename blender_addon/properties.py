@@ -28,7 +28,7 @@ class VTO_PG_match_settings(bpy.types.PropertyGroup):
                                           "the image when all four are at most 1")
     mask_path: StringProperty(name="Mask", subtype="FILE_PATH",
                               description="Optional mask image. Lipstick: white = the lips, the reference is "
-                                          "cropped to them. Hair: white = the hair, which makes Better and Best "
+                                          "framed around them as the training renders frame lips. Hair: white = the hair, which makes Better and Best "
                                           "possible (the photo is its own source)")
     model_path: StringProperty(name="Model", subtype="FILE_PATH",
                                description="An encoder (.onnx) for this material only; empty: the add-on "

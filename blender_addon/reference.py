@@ -16,6 +16,10 @@ from vto_core.errors import VtoError
 from vto_core.imageio import read_image, resize
 
 MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that an estimate is made from
+# The default lips scene frames the lips in a square whose width they span this share of (lips_mask over sources 0-7
+# at 64 px: 0.73-0.84). A lips mask is framed alike, so the encoder sees lips at the scale it was trained on: the
+# mask's own box, stretched to a square, tripled the colour error (benchmarks/results/mask_crop.md).
+LIPS_WIDTH_SHARE = 0.78
 
 
 def absolute_path(path: str) -> str:
@@ -110,6 +114,22 @@ def read_mask(path: str, shape: tuple[int, int]) -> np.ndarray:
     return mask
 
 
+def lips_frame(mask: np.ndarray) -> tuple[int, int, int, int]:
+    """(x, y, w, h) of the square that frames a lips mask (H, W) as the default lips scene frames the lips.
+
+    Centred on the mask's box, whose width is LIPS_WIDTH_SHARE of the side (at least the box's height and MIN_SIZE);
+    shrunk to the image's shorter side and moved inside the image where it would not fit.
+    """
+    rows, cols = np.nonzero(mask)
+    height, width = mask.shape
+    side = max(math.ceil((cols.max() + 1 - cols.min()) / LIPS_WIDTH_SHARE), rows.max() + 1 - rows.min(), MIN_SIZE)
+    side = min(side, height, width)
+    centre_y, centre_x = (rows.min() + rows.max() + 1) / 2, (cols.min() + cols.max() + 1) / 2
+    y = min(max(int(round(centre_y - side / 2)), 0), height - side)
+    x = min(max(int(round(centre_x - side / 2)), 0), width - side)
+    return x, y, side, side
+
+
 def read_reference(settings: dict) -> tuple[np.ndarray, np.ndarray | None]:
     """The reference (H, W, 3) in [0, 1] after the crop, and its mask (H, W) or None; one-line errors."""
     if settings.get("image_path"):
@@ -128,10 +148,7 @@ def read_reference(settings: dict) -> tuple[np.ndarray, np.ndarray | None]:
     if crop is not None:
         x, y, w, h = crop_box(crop, reference.shape[1], reference.shape[0])
     elif mask is not None and settings.get("crop_to_mask", True):
-        rows, cols = np.nonzero(mask)
-        y, x = rows.min(), cols.min()
-        h, w = max(rows.max() + 1 - y, MIN_SIZE), max(cols.max() + 1 - x, MIN_SIZE)
-        y, x = min(y, reference.shape[0] - h), min(x, reference.shape[1] - w)
+        x, y, w, h = lips_frame(mask)
     else:
         return reference, mask
     reference = np.ascontiguousarray(reference[y:y + h, x:x + w])

@@ -31,6 +31,7 @@ class ParamSpec:
     wraps: bool = False  # hue: high is the same value as low
     scale: float = 1.0  # unbounded ranges: the saturating map is v / (v + scale)
     unit_high: float = math.inf  # unbounded ranges: the largest value the [0,1] space encodes (sampling's top)
+    unit_power: float = 1.0  # the encoded unit is the affine/saturating unit ** unit_power (< 1 widens the low end)
     description: str = ""
     unmodelled_reason: str = ""  # why the parameter is left out of the default model ("" = modelled)
 
@@ -63,13 +64,21 @@ class ParamSpec:
             return clamped
         return value
 
+    def __post_init__(self):
+        if not 0.0 < self.unit_power < math.inf or (self.wraps and self.unit_power != 1.0):
+            raise VtoError(f"parameter '{self.name}': unit_power must be positive and finite (1 for a wrapping "
+                           f"parameter), got {self.unit_power}")
+
     def to_unit(self, value: float) -> float:
-        """Raw value -> [0,1] (affine, or v/(v+scale) for an unbounded range)."""
+        """Raw value -> [0,1]: affine, or v/(v+scale) for an unbounded range, then ** unit_power."""
         value = self.clamp(value) - self.low
         if self.bounded:
             unit = value / (self.high - self.low)
-            return 0.0 if self.wraps and unit >= 1.0 else unit
-        return min(self._saturate(value) / self._saturate(self.unit_high - self.low), 1.0)
+            if self.wraps and unit >= 1.0:
+                return 0.0
+        else:
+            unit = min(self._saturate(value) / self._saturate(self.unit_high - self.low), 1.0)
+        return unit if self.unit_power == 1.0 else unit**self.unit_power
 
     def _saturate(self, value: float) -> float:
         """v / (v + scale) in [0, 1], without overflow near float max (s / v is tiny there instead)."""
@@ -87,6 +96,8 @@ class ParamSpec:
         if self.wraps:
             unit = unit % 1.0
         unit = min(max(unit, 0.0), 1.0)
+        if self.unit_power != 1.0:
+            unit = unit ** (1.0 / self.unit_power)
         if self.bounded:
             return self.low + unit * (self.high - self.low)
         if unit >= 1.0 and math.isfinite(self.unit_high):
@@ -238,6 +249,12 @@ ROUGHNESS_BELOW_BAR = ("its 25th->75th percentile change stands 2.36x (less than
                        "few pixels, so the encoder cannot learn it; select it with --params to model it")
 
 
+# The encoded unit is the linear (reflection) or saturating (gloss) unit ** power: fitted so that the cumulative
+# visibility of the power-1 quarters (benchmarks/results/visibility.md, 2026-11-23 13:35) rises evenly.
+GLOSS_UNIT_POWER = 0.8
+REFLECTION_UNIT_POWER = 0.85
+
+
 def _lipstick() -> RendererSpec:
     main, ext = "main", "extended"
     p = ParamSpec
@@ -248,12 +265,15 @@ def _lipstick() -> RendererSpec:
             p("red", "Red", 0.0, 255.0, 170.0, "8-bit sRGB", main, description="Makeup colour, red"),
             p("green", "Green", 0.0, 255.0, 40.0, "8-bit sRGB", main, description="Makeup colour, green"),
             p("blue", "Blue", 0.0, 255.0, 60.0, "8-bit sRGB", main, description="Makeup colour, blue"),
-            p("gloss", "Gloss", 0.0, math.inf, 0.5, "", main, scale=1.0, unit_high=8.0,
+            # unit_power evens out how visible each quarter of the encoded range is (benchmarks/results/visibility.md:
+            # with power 1, gloss's quarters stood 2.9, 2.1, 1.9, 1.8 above noise, reflection's 3.7, 2.5, 2.6, 2.5).
+            p("gloss", "Gloss", 0.0, math.inf, 0.5, "", main, scale=1.0, unit_high=8.0, unit_power=GLOSS_UNIT_POWER,
               description="Amount of gloss: the clear coat's reflectance, saturating as gloss grows (0 = none). "
                           "Sampled and estimated over [0, 8], twice the glossiest preset"),
             p("gloss_roughness", "Gloss Roughness", 0.0, 1.0, 0.3, "", main, unmodelled_reason=ROUGHNESS_BELOW_BAR,
               description="Roughness of the gloss layer (the clear coat's roughness)"),
-            p("reflection", "Reflection", 0.0, 1.0, 0.2, "", main, description="Environment reflection intensity"),
+            p("reflection", "Reflection", 0.0, 1.0, 0.2, "", main, unit_power=REFLECTION_UNIT_POWER,
+              description="Environment reflection intensity"),
             p("sparkle_density", "Sparkle Density", 0.0, 1.0, 0.0, "", ext, unmodelled_reason=INVISIBLE, description="Fraction of the surface with glitter"),
             p("sparkle_size", "Sparkle Size", 0.0, 1.0, 0.3, "", ext, unmodelled_reason=INVISIBLE, description="Size of the glitter flakes"),
             p("sparkle_intensity", "Sparkle Intensity", 0.0, 1.0, 0.5, "", ext, unmodelled_reason=INVISIBLE, description="Brightness of the flakes"),

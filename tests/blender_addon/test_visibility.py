@@ -1,6 +1,9 @@
 """Every modelled parameter of both renderers shows at training size: a 25th -> 75th percentile change against
 render noise (vto_core.visibility), at 64 px and the dataset's default samples."""
 
+import dataclasses
+
+import numpy as np
 import pytest
 
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
@@ -11,7 +14,8 @@ from blender_addon.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.scene_lips import lips_mask  # noqa: E402
 from vto_core.dataset import DEFAULT_SAMPLES  # noqa: E402
 from vto_core.specs import get_spec  # noqa: E402
-from vto_core.visibility import BELOW_BAR, VISIBLE_RATIO, measurement_look, parameter_visibility  # noqa: E402
+from vto_core.visibility import (  # noqa: E402
+    BELOW_BAR, VISIBLE_RATIO, measurement_look, parameter_visibility, step_visibility)
 
 RES, SOURCE = 64, 1
 def _check(renderer, name, ratio, modelled):
@@ -34,6 +38,26 @@ def test_lipstick_parameter_is_visible(param, lipstick_mask):
     ratio = parameter_visibility(lambda v, s: render("lipstick", v, SOURCE, RES, DEFAULT_SAMPLES, s), param,
                                  measurement_look("lipstick", param.name), mask=lipstick_mask)
     _check("lipstick", param.name, ratio, param.name in get_spec("lipstick").modelled)
+
+
+EVEN_WITHIN = 1.3  # the largest / smallest quarter's visibility (bench_visibility: gloss 1.07, reflection 1.18)
+
+
+@pytest.mark.parametrize("name", ["gloss", "reflection"])
+def test_each_quarter_of_the_encoded_range_is_about_as_visible(name):
+    """unit_power evens the quarters out (mean over sources 1-4, as bench_visibility: one source's noise is larger
+    than the effect): without it (power 1) they spread beyond EVEN_WITHIN (1.59 and 1.49)."""
+    param = get_spec("lipstick").by_name[name]
+    masks = {source: lips_mask(source, RES) for source in range(1, 5)}
+
+    def spread(encoded):
+        ratios = np.mean([step_visibility(lambda v, s: render("lipstick", v, source, RES, DEFAULT_SAMPLES, s),
+                                          encoded, measurement_look("lipstick", name), mask=mask)
+                          for source, mask in masks.items()], axis=0)
+        return ratios.max() / ratios.min()
+
+    even, linear = spread(param), spread(dataclasses.replace(param, unit_power=1.0))
+    assert param.unit_power < 1.0 and even < EVEN_WITHIN < linear, (even, linear)
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, strategies as st
 
 from vto_core.errors import VtoError
-from vto_core.specs import RENDERERS, RendererSpec, get_spec
+from vto_core.specs import RENDERERS, ParamSpec, RendererSpec, get_spec
 
 ALL_PARAMS = [(r, p) for r, spec in RENDERERS.items() for p in spec.params]
 IDS = [f"{r}.{p.name}" for r, p in ALL_PARAMS]
@@ -69,14 +69,45 @@ def test_unbounded_gloss_encodes_up_to_its_sampling_top(huge):
 
 
 def test_saturating_map_values():
-    """u = s(g) / s(8) with s(g) = g / (g + 1): resolution where the presets are, 8 (twice the glossiest) at 1."""
+    """u = (s(g) / s(8)) ** 0.8 with s(g) = g / (g + 1): resolution where the presets are, 8 (twice the glossiest) at 1."""
     gloss = get_spec("lipstick").by_name["gloss"]
+    assert gloss.unit_power == 0.8
     assert gloss.to_unit(0.0) == 0.0
-    assert gloss.to_unit(1.0) == pytest.approx(0.5 / (8 / 9))
-    assert gloss.from_unit(0.75) == pytest.approx(2.0)
-    assert gloss.from_unit(0.25) == pytest.approx(2 / 7)
+    assert gloss.to_unit(1.0) == pytest.approx((0.5 / (8 / 9)) ** 0.8)
+    assert gloss.from_unit(0.75 ** 0.8) == pytest.approx(2.0)
+    assert gloss.from_unit(0.25 ** 0.8) == pytest.approx(2 / 7)
     values = [gloss.from_unit(u) for u in np.linspace(0, 1, 101)]
     assert np.all(np.diff(values) > 0)
+
+
+def test_unit_power_widens_the_low_end_and_round_trips():
+    """reflection's unit is r ** 0.85: a quarter of the encoded range reaches below r = 0.25, and back is exact."""
+    reflection = get_spec("lipstick").by_name["reflection"]
+    assert reflection.from_unit(0.25) == pytest.approx(0.25 ** (1 / 0.85)) and reflection.from_unit(0.25) < 0.25
+    for raw in np.linspace(0.0, 1.0, 11):
+        assert reflection.from_unit(reflection.to_unit(raw)) == pytest.approx(raw, abs=1e-12)
+    assert reflection.to_unit(0.0) == 0.0 and reflection.to_unit(1.0) == 1.0
+
+
+@pytest.mark.parametrize("power", [0.0, -1.0, math.inf, math.nan])
+def test_unit_power_must_be_positive_and_finite(power):
+    with pytest.raises(VtoError, match="unit_power"):
+        ParamSpec("x", "X", 0.0, 1.0, 0.5, unit_power=power)
+
+
+def test_a_wrapping_parameter_keeps_unit_power_1():
+    with pytest.raises(VtoError, match="wrapping"):
+        ParamSpec("hue", "Hue", 0.0, 1.0, 0.0, wraps=True, unit_power=0.8)
+
+
+def test_a_spec_written_before_unit_power_reads_as_power_1():
+    """Models and datasets made before the field existed decode as they were trained."""
+    data = get_spec("lipstick").to_dict()
+    for entry in data["params"]:
+        del entry["unit_power"]
+    old = RendererSpec.from_dict(data)
+    assert old.by_name["gloss"].unit_power == 1.0 and old.by_name["gloss"].from_unit(0.75) == pytest.approx(2.0)
+    assert not old.same_as(get_spec("lipstick"))
 
 
 def test_out_of_range_is_clamped_with_a_warning_not_wrapped():
