@@ -1,6 +1,6 @@
 """How far JPEG compression moves a lipstick encoder's colour estimate, against the estimate's own error.
 
-Renders of a `vto dataset` folder are written as JPEG through OpenImageIO at several qualities, either at the
+The last renders of a `vto dataset` folder (those a training run on it holds out) are written as JPEG through OpenImageIO at several qualities, either at the
 encoder's 64 px or at 4x that size and then shrunk to 64 px (a photo is usually larger than the crop the encoder
 sees), and read back; the encoder's red, green and blue estimates are compared with those from the lossless render
 and with the truth, in 8-bit steps. Writes a section of benchmarks/results/jpeg.md.
@@ -48,7 +48,7 @@ def run(data: str, model: str, n: int) -> str:
 
     reader = DatasetReader(data)
     session = EncoderSession(model)
-    positions = range(min(n, len(reader)))
+    positions = range(max(len(reader) - n, 0), len(reader))  # the end: what training holds out (val_fraction)
     samples = [reader[i] for i in positions]
     names = list(reader.spec.modelled)
     truth = np.array([[s.raw[names.index(c)] for c in CHANNELS] for s in samples])
@@ -64,7 +64,7 @@ def run(data: str, model: str, n: int) -> str:
             rows.append([f"JPEG quality {quality}", f"{64 * factor} px",
                          f"{np.median(np.abs(found - lossless)):.2f}", f"{np.median(np.abs(found - truth)):.2f}"])
     return (f"## JPEG against the colour estimate ({Path(model).name})\n\n"
-            f"{len(samples)} renders of `{data}`; medians over looks and channels, 8-bit steps.\n\n"
+            f"The last {len(samples)} renders of `{data}` (held out in training); medians over looks and channels, 8-bit steps.\n\n"
             + table(["view", "JPEG written at", "shift from the lossless estimate", "error against the truth"], rows)
             + f"\n\nReproduce: `python -m benchmarks.bench_jpeg --data DATA --model {model} --n {n}`.")
 

@@ -18,7 +18,7 @@ from vto_core.imageio import read_image, resize
 MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that an estimate is made from
 # The default lips scene frames the lips in a square whose width they span this share of (lips_mask over sources 0-7
 # at 64 px: 0.73-0.84). A lips mask is framed alike, so the encoder sees lips at the scale it was trained on: the
-# mask's own box, stretched to a square, tripled the colour error (benchmarks/results/mask_crop.md).
+# mask's own box, stretched to a square, gave 1.7-2.5x the colour error (benchmarks/results/mask_crop.md).
 LIPS_WIDTH_SHARE = 0.78
 
 

@@ -160,12 +160,13 @@ def check_settings(settings: EvalSettings) -> None:
 
 
 def other_sessions(settings: EvalSettings, session: EncoderSession) -> list[EncoderSession]:
-    """The --compare encoders, each checked to estimate the same spec from the same input size as `session`."""
+    """The --compare encoders, each checked to estimate the same values (its own encoding of them may differ) from the
+    same input size as `session`."""
     others = []
     for name, path in settings.compare:
         other = EncoderSession(path)
-        if not other.spec.same_as(session.spec) or tuple(other.input_size) != tuple(session.input_size):
-            raise VtoError(f"--compare {name}: {path} estimates another spec or input size than the evaluated model")
+        if not other.spec.same_values(session.spec) or tuple(other.input_size) != tuple(session.input_size):
+            raise VtoError(f"--compare {name}: {path} estimates other values or input size than the evaluated model")
         others.append(other)
     return others
 

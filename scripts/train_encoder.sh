@@ -4,19 +4,21 @@
 # Graphics loss (the paper's MIG baseline: no imitator at 64 px yet) with mirrored/shifted views, cosine lr.
 # CPU: about an hour of rendering (2 cores) and 10-15 minutes of training; add --device cuda to the train line
 # on a GPU. Environment: N (looks), STEPS (optimiser steps), WORKERS (render processes).
-# Lipstick renders the default lips scene under its default (portrait) lighting.
+# Lipstick renders the default lips scene under its default (portrait) lighting, without the source X (--no-source:
+# the graphics loss does not read it), and trains with photo views.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VTO=.venv/bin/vto
 RENDERER=${1:?usage: scripts/train_encoder.sh lipstick|hair}
 case $RENDERER in
-  lipstick) DATA=out/data/lip64p SEED=31 LOOKS=6000 ;;
-  hair) DATA=out/data/hair64 SEED=301 LOOKS=5000 ;;
+  lipstick) DATA=out/data/lip64w SEED=51 LOOKS=24000 STEPS_USED=15000 DATA_ARGS=--no-source
+            TRAIN_ARGS="--set photo_views=true" ;;
+  hair) DATA=out/data/hair64 SEED=301 LOOKS=5000 STEPS_USED=6000 DATA_ARGS= TRAIN_ARGS= ;;
   *) echo "usage: scripts/train_encoder.sh lipstick|hair" >&2; exit 2 ;;
 esac
-$VTO dataset "$RENDERER" --out "$DATA" --n "${N:-$LOOKS}" --seed "$SEED" --workers "${WORKERS:-2}"
-$VTO train encoder --data "$DATA" --out "out/runs/${RENDERER}_encoder" --set loss=graphics --set augment=true \
-    --set steps="${STEPS:-6000}" --set lr=0.001 --set schedule=cosine --set warmup_steps=100 \
+$VTO dataset "$RENDERER" --out "$DATA" --n "${N:-$LOOKS}" --seed "$SEED" --workers "${WORKERS:-2}" $DATA_ARGS
+$VTO train encoder --data "$DATA" --out "out/runs/${RENDERER}_encoder" --set loss=graphics --set augment=true $TRAIN_ARGS \
+    --set steps="${STEPS:-$STEPS_USED}" --set lr=0.001 --set schedule=cosine --set warmup_steps=100 \
     --set log_every=250 --set checkpoint_every=1000
 $VTO export --encoder "out/runs/${RENDERER}_encoder" --out "blender_addon/models/${RENDERER}_encoder.onnx"
 $VTO eval --model "blender_addon/models/${RENDERER}_encoder.onnx" --n 48 --seed 9001 --refine render:25 \

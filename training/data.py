@@ -32,7 +32,7 @@ class RenderDataset(Dataset):
                            "and the rendering loss need (train the encoder with --set loss=graphics)")
         self.reader, self.positions, self.need_sensitivity = reader, positions, need_sensitivity
         res = reader.manifest["res"]
-        images_per_sample = 2 + (reader.spec.size if need_sensitivity else 0)
+        images_per_sample = (2 if reader.has_sources else 1) + (reader.spec.size if need_sensitivity else 0)
         # Decoded samples stay in memory when they fit: PNG decoding otherwise dominates small-model steps.
         self.cache = {} if len(positions) * images_per_sample * res * res * 3 * 4 <= cache_bytes else None
 

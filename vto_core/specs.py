@@ -235,8 +235,15 @@ class RendererSpec:
             raise VtoError(f"not a renderer spec: {exc}") from None
 
     def same_as(self, other: "RendererSpec") -> bool:
-        """Whether two specs give the same vector (renderer, modelled names, ranges)."""
+        """Whether two specs give the same vector (renderer, modelled names, ranges, encoding)."""
         return self.to_dict() == other.to_dict()
+
+    def same_values(self, other: "RendererSpec") -> bool:
+        """Whether two specs estimate the same raw values (renderer, modelled names and ranges), however they encode
+        them in [0, 1]: models of either give comparable estimates."""
+        def values(spec):
+            return spec.renderer, [(p.name, p.low, p.high, p.wraps) for p in spec.modelled_params]
+        return values(self) == values(other)
 
 
 # Measured by tests/blender_addon/test_visibility.py and benchmarks/bench_render.py (benchmarks/results/render.md).

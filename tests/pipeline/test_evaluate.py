@@ -3,6 +3,7 @@
 import contextlib
 import io
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,6 +24,7 @@ from vto_core.metrics import psnr  # noqa: E402
 from vto_core.presets import load_presets  # noqa: E402
 from vto_core.specs import get_spec  # noqa: E402
 
+ROOT = Path(__file__).resolve().parents[2]
 RES, SAMPLES, N = 16, 2, 2
 METHODS = {"mean preset", "nearest preset", "encoder", "encoder + imitator 3", "encoder + render search 5",
            "render search 5 from the mean preset", "same encoder"}
@@ -126,11 +128,13 @@ def test_tables_plots_and_contact_sheet_are_written(evaluated):
     (["--compare", "no-equals-sign"], "--compare takes NAME=MODEL"),
     (["--compare", "encoder={model}"], "names must be unique and differ from the built-in"),
     (["--compare", "other={tmp}/junk.onnx"], "cannot load"),
+    (["--compare", "hair={root}/blender_addon/models/hair_encoder.onnx"], "estimates other values or input size"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(argv, message, models, tmp_path):
     (tmp_path / "junk.onnx").write_bytes(b"not a model")
     args = {"--model": models[0], "--out": str(tmp_path / "out"), "--n": "1", "--res": str(RES), "--samples": "1"}
-    args.update(zip(argv[::2], (a.replace("{tmp}", str(tmp_path)).replace("{model}", models[0]) for a in argv[1::2])))
+    args.update(zip(argv[::2], (a.replace("{tmp}", str(tmp_path)).replace("{model}", models[0])
+                                           .replace("{root}", str(ROOT)) for a in argv[1::2])))
     with pytest.raises(VtoError, match=message) as caught:
         cmd_eval([x for pair in args.items() for x in pair])
     assert "\n" not in str(caught.value)

@@ -249,3 +249,9 @@ def test_an_encoder_trains_on_a_dataset_without_sources_and_the_imitator_refuses
         train_encoder(str(data), str(imitator_run), str(tmp_path / "both"),
                       resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=2", "loss=rendering"]))
     assert not (tmp_path / "imitator").exists()
+    from training.data import RenderDataset
+    from vto_core.dataset import DatasetReader
+
+    reader = DatasetReader(str(data))  # one image a look: 12 looks of 16 px RGB float32 fit in exactly that
+    assert RenderDataset(reader, list(range(12)), cache_bytes=12 * 16 * 16 * 3 * 4, need_source=False).cache == {}
+    assert RenderDataset(reader, list(range(12)), cache_bytes=12 * 16 * 16 * 3 * 4 - 1, need_source=False).cache is None

@@ -107,7 +107,8 @@ def test_a_spec_written_before_unit_power_reads_as_power_1():
         del entry["unit_power"]
     old = RendererSpec.from_dict(data)
     assert old.by_name["gloss"].unit_power == 1.0 and old.by_name["gloss"].from_unit(0.75) == pytest.approx(2.0)
-    assert not old.same_as(get_spec("lipstick"))
+    assert not old.same_as(get_spec("lipstick")) and old.same_values(get_spec("lipstick"))
+    assert not old.same_values(get_spec("lipstick", "red,green")) and not old.same_values(get_spec("hair"))
 
 
 def test_out_of_range_is_clamped_with_a_warning_not_wrapped():
