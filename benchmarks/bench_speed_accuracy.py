@@ -54,8 +54,8 @@ def run(model: str, imitator: str | None, n: int, res: int, samples: int, seed: 
                   "on the reference's source; render search counts its renders there (B, plus the hair source render "
                   "for hair); imitator refinement counts rendering the bare source X and K Adam steps on the CPU.",
               "", "Reproduce: `.venv/bin/python -m benchmarks.bench_speed_accuracy --model " + model +
-              (f" --imitator {imitator}" if imitator else "") + f" --n {n} --res {res} --samples {samples} --seed "
-              f"{seed} --steps {','.join(map(str, steps))} --budgets {','.join(map(str, budgets))} --from-mean "
+              (f" --imitator {imitator} --steps {','.join(map(str, steps))}" if imitator else " --steps ''") +
+              f" --n {n} --res {res} --samples {samples} --seed {seed} --budgets {','.join(map(str, budgets))} --from-mean "
               f"{','.join(map(str, from_mean))}`."]
     results.mkdir(parents=True, exist_ok=True)
     table = results / "speed_accuracy.md"

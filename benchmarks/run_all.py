@@ -1,6 +1,7 @@
 """Run every benchmark in turn (`make bench`)."""
 
-from benchmarks import bench_batch, bench_dataset, bench_hair_match, bench_match, bench_render, bench_training
+from benchmarks import (bench_batch, bench_dataset, bench_hair_match, bench_mask_crop, bench_match, bench_render,
+                        bench_training)
 
 
 def main() -> None:
@@ -11,6 +12,7 @@ def main() -> None:
     bench_training.main()
     bench_batch.main([])
     bench_match.main([])
+    bench_mask_crop.main()
 
 
 if __name__ == "__main__":
