@@ -1,8 +1,9 @@
 """The budgets of `vto demo --size smoke|small|full`: data, networks, steps and evaluation per size.
 
-Measured on this project's 2-core CPU machine, otherwise idle (every report has its stage timings): `full` 16.3 min
-(encoder +1.4 dB transfer PSNR over the mean preset, 24 looks), `small` 3.9 min (+1.4 dB, 16 looks), `smoke` (CI)
-1.3 min (+2.5 dB, 12 looks, 4 parameters). The encoder's rendering loss is weighted 1, not 20: through these small
+Measured on this project's 2-core CPU machine, otherwise idle (every report has its stage timings): `full` 16.6 min
+(encoder +5.1 dB transfer PSNR over the mean preset and +4.4 dB over the nearest preset, 24 looks; with 1,500 looks
+and 1,500 steps it was 8.5 min and +1.1 dB), `small` 3.9 min (+1.4 dB, 16 looks), `smoke` (CI) 1.3 min (+2.5 dB,
+12 looks, 4 parameters). The encoder's rendering loss is weighted 1, not 20: through these small
 imitators it is ~0.2 against a graphics loss of ~0.6, so at 20 it would drown the graphics term.
 
 Two datasets at the same size and settings: a small one with sensitivity renders for the
@@ -52,8 +53,8 @@ SIZES = {
         encoder=("width=32", "steps=800", "lr=0.001", "warmup_steps=50", "augment=true", "lambda_rendering=1"),
         eval_n=16, refine=("imitator:10", "render:8")),
     "full": DemoSize(
-        res=64, samples=8, n_imitator=150, n_encoder=1500,
+        res=64, samples=8, n_imitator=150, n_encoder=4000,
         imitator=("width=8", "n_down=2", "n_res=2", "critic_width=16", "critic_layers=3", "steps=200", "lr=0.001"),
-        encoder=("width=32", "steps=1500", "lr=0.001", "warmup_steps=50", "augment=true", "lambda_rendering=1"),
+        encoder=("width=32", "steps=4000", "lr=0.001", "warmup_steps=50", "augment=true", "lambda_rendering=1"),
         eval_n=24, refine=("imitator:10", "render:8")),
 }

@@ -35,6 +35,11 @@ class ParamSpec:
     description: str = ""
     unmodelled_reason: str = ""  # why the parameter is left out of the default model ("" = modelled)
 
+    def __post_init__(self):
+        if not 0.0 < self.unit_power < math.inf or (self.wraps and self.unit_power != 1.0):
+            raise VtoError(f"parameter '{self.name}': unit_power must be positive and finite (1 for a wrapping "
+                           f"parameter), got {self.unit_power}")
+
     @property
     def bounded(self) -> bool:
         """Whether the range has a finite upper end."""
@@ -63,11 +68,6 @@ class ParamSpec:
             )
             return clamped
         return value
-
-    def __post_init__(self):
-        if not 0.0 < self.unit_power < math.inf or (self.wraps and self.unit_power != 1.0):
-            raise VtoError(f"parameter '{self.name}': unit_power must be positive and finite (1 for a wrapping "
-                           f"parameter), got {self.unit_power}")
 
     def to_unit(self, value: float) -> float:
         """Raw value -> [0,1]: affine, or v/(v+scale) for an unbounded range, then ** unit_power."""
@@ -256,8 +256,9 @@ ROUGHNESS_BELOW_BAR = ("its 25th->75th percentile change stands 2.36x (less than
                        "few pixels, so the encoder cannot learn it; select it with --params to model it")
 
 
-# The encoded unit is the linear (reflection) or saturating (gloss) unit ** power: fitted so that the cumulative
-# visibility of the power-1 quarters (benchmarks/results/visibility.md, 2026-11-23 13:35) rises evenly.
+# The encoded unit is the linear (reflection) or saturating (gloss) unit ** power, fitted so that the cumulative
+# visibility of the power-1 quarters rises evenly: those stood 2.9, 2.1, 1.9, 1.8x above render noise for gloss and
+# 3.7, 2.5, 2.6, 2.5x for reflection; now 2.1-2.3x and 2.6-3.0x (benchmarks/results/visibility.md).
 GLOSS_UNIT_POWER = 0.8
 REFLECTION_UNIT_POWER = 0.85
 
@@ -272,8 +273,6 @@ def _lipstick() -> RendererSpec:
             p("red", "Red", 0.0, 255.0, 170.0, "8-bit sRGB", main, description="Makeup colour, red"),
             p("green", "Green", 0.0, 255.0, 40.0, "8-bit sRGB", main, description="Makeup colour, green"),
             p("blue", "Blue", 0.0, 255.0, 60.0, "8-bit sRGB", main, description="Makeup colour, blue"),
-            # unit_power evens out how visible each quarter of the encoded range is (benchmarks/results/visibility.md:
-            # with power 1, gloss's quarters stood 2.9, 2.1, 1.9, 1.8 above noise, reflection's 3.7, 2.5, 2.6, 2.5).
             p("gloss", "Gloss", 0.0, math.inf, 0.5, "", main, scale=1.0, unit_high=8.0, unit_power=GLOSS_UNIT_POWER,
               description="Amount of gloss: the clear coat's reflectance, saturating as gloss grows (0 = none). "
                           "Sampled and estimated over [0, 8], twice the glossiest preset"),
