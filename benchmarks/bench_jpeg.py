@@ -1,7 +1,7 @@
 """How far JPEG compression moves a lipstick encoder's colour estimate, against the estimate's own error.
 
-The last renders of a `vto dataset` folder (those a training run on it holds out) are written as JPEG through OpenImageIO at several qualities, either at the
-encoder's 64 px or at 4x that size and then shrunk to 64 px (a photo is usually larger than the crop the encoder
+The last renders of a `vto dataset` folder (those a training run on it holds out) are written as JPEG through
+OpenImageIO at several qualities, either at the encoder's 64 px or at 4x that size and then shrunk to 64 px (a photo is usually larger than the crop the encoder
 sees), and read back; the encoder's red, green and blue estimates are compared with those from the lossless render
 and with the truth, in 8-bit steps. Writes a section of benchmarks/results/jpeg.md.
 
@@ -16,9 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import RESULTS, table, write_section
-
-CHANNELS = ("red", "green", "blue")
+from benchmarks.common import RESULTS, lip_colour, table, write_section
 SETTINGS = ((90, 1), (70, 1), (50, 1), (30, 1), (70, 4), (50, 4), (30, 4))  # (JPEG quality, size factor)
 
 
@@ -50,11 +48,10 @@ def run(data: str, model: str, n: int) -> str:
     session = EncoderSession(model)
     positions = range(max(len(reader) - n, 0), len(reader))  # the end: what training holds out (val_fraction)
     samples = [reader[i] for i in positions]
-    names = list(reader.spec.modelled)
-    truth = np.array([[s.raw[names.index(c)] for c in CHANNELS] for s in samples])
+    truth = np.array([lip_colour(reader.spec.values(s.raw)) for s in samples])
 
     def colours(images):
-        return np.array([[e[c] for c in CHANNELS] for e in session.predict(images)])
+        return np.array([lip_colour(estimate) for estimate in session.predict(images)])
 
     lossless = colours([s.render for s in samples])
     rows = [["lossless", "-", "0.00", f"{np.median(np.abs(lossless - truth)):.2f}"]]
@@ -64,7 +61,8 @@ def run(data: str, model: str, n: int) -> str:
             rows.append([f"JPEG quality {quality}", f"{64 * factor} px",
                          f"{np.median(np.abs(found - lossless)):.2f}", f"{np.median(np.abs(found - truth)):.2f}"])
     return (f"## JPEG against the colour estimate ({Path(model).name})\n\n"
-            f"The last {len(samples)} renders of `{data}` (held out in training); medians over looks and channels, 8-bit steps.\n\n"
+            f"The last {len(samples)} renders of `{data}` (held out in training); medians over looks and channels, "
+            "8-bit steps.\n\n"
             + table(["view", "JPEG written at", "shift from the lossless estimate", "error against the truth"], rows)
             + f"\n\nReproduce: `python -m benchmarks.bench_jpeg --data DATA --model {model} --n {n}`.")
 

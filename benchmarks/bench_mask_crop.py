@@ -17,9 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import RESULTS, table, write_section
-
-CHANNELS = ("red", "green", "blue")
+from benchmarks.common import RESULTS, lip_colour, table, write_section
 RES = 128
 FIRST_SOURCE = 7000
 
@@ -40,7 +38,8 @@ def run(model: str, n: int, seed: int) -> str:
     with tempfile.TemporaryDirectory() as folder:
         for index in range(n):
             unit = rng.random(spec.size)
-            unit[spec.modelled.index("opacity")] = 0.5 + 0.5 * unit[spec.modelled.index("opacity")]
+            opacity = spec.modelled.index("opacity")
+            unit[opacity] = 0.5 + 0.5 * unit[opacity]
             values = spec.values(spec.denormalise(unit))
             source = FIRST_SOURCE + index
             image, mask = render("lipstick", values, source, RES, 16), lips_mask(source, RES)
@@ -52,10 +51,9 @@ def run(model: str, n: int, seed: int) -> str:
                      "the mask's own box (before)": image[rows.min():rows.max() + 1, cols.min():cols.max() + 1],
                      "the panel's mask path (lips_frame)": read_reference({"image_path": str(image_path),
                                                                            "mask_path": str(mask_path)})[0]}
-            truth = np.array([values[c] for c in CHANNELS])
             for name, view in views.items():
                 estimate = session.predict(resize(view, size, size))[0]
-                errors[name].append(np.abs(np.array([estimate[c] for c in CHANNELS]) - truth))
+                errors[name].append(np.abs(lip_colour(estimate) - lip_colour(values)))
     rows = [[name, f"{np.median(found):.1f}"] for name, found in errors.items()]
     return (f"## Colour error by the crop the encoder sees ({Path(model).name})\n\n"
             f"{n} fresh looks (opacity >= 0.5, look seed {seed}) on default sources {FIRST_SOURCE}-"

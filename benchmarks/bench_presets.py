@@ -16,9 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import RESULTS, table, write_section
-
-CHANNELS = ("red", "green", "blue")
+from benchmarks.common import RESULTS, lip_colour, table, write_section
 
 
 def match_presets(model: str, sources: range, lighting: str | None, res: int = 64) -> dict[str, dict]:
@@ -30,9 +28,9 @@ def match_presets(model: str, sources: range, lighting: str | None, res: int = 6
     session = EncoderSession(model)
     found = {}
     for name, values in load_presets("lipstick").items():
-        truth = np.array([values[c] for c in CHANNELS], np.float64)
-        estimates = np.array([[session.predict(render("lipstick", values, source, res, 16, 0, lighting))[0][c]
-                               for c in CHANNELS] for source in sources])
+        truth = lip_colour(values)
+        estimates = np.array([lip_colour(session.predict(render("lipstick", values, source, res, 16, 0, lighting))[0])
+                              for source in sources])
         found[name] = {"set": truth, "estimates": estimates, "errors": np.abs(estimates - truth)}
     return found
 

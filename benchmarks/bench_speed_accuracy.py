@@ -55,8 +55,8 @@ def run(model: str, imitator: str | None, n: int, res: int, samples: int, seed: 
                   "for hair); imitator refinement counts rendering the bare source X and K Adam steps on the CPU.",
               "", "Reproduce: `.venv/bin/python -m benchmarks.bench_speed_accuracy --model " + model +
               (f" --imitator {imitator} --steps {','.join(map(str, steps))}" if imitator else " --steps ''") +
-              f" --n {n} --res {res} --samples {samples} --seed {seed} --budgets {','.join(map(str, budgets))} --from-mean "
-              f"{','.join(map(str, from_mean))}`."]
+              f" --n {n} --res {res} --samples {samples} --seed {seed} --budgets {','.join(map(str, budgets))}"
+              f" --from-mean {','.join(map(str, from_mean))}`."]
     results.mkdir(parents=True, exist_ok=True)
     table = results / "speed_accuracy.md"
     table.write_text("\n".join(lines) + "\n")

@@ -8,6 +8,8 @@ import re
 import time
 from pathlib import Path
 
+import numpy as np
+
 RESULTS = Path(__file__).parent / "results"
 
 
@@ -20,6 +22,11 @@ def best_time(fn, repeats: int = 3) -> float:
         fn()
         best = min(best, time.perf_counter() - start)
     return best
+
+
+def lip_colour(values: dict[str, float]) -> np.ndarray:
+    """The makeup colour of lipstick values: (3,) red, green and blue in 8-bit steps."""
+    return np.array([values["red"], values["green"], values["blue"]], np.float64)
 
 
 def write_table(name: str, title: str, header: list[str], rows: list[list], notes: str = "") -> Path:

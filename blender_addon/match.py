@@ -196,7 +196,8 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
     parser.add_argument("--save", action="store_true", help="with --material: save the .blend (atomically)")
     parser.add_argument("--crop", default=None, help="with --material: x,y,w,h of the reference to use, from the "
                                                      "top-left, in pixels or fractions")
-    parser.add_argument("--mask", default=None, help="with --material: a mask image of the lips; the reference is framed around them as the default scene frames its lips")
+    parser.add_argument("--mask", default=None, help="with --material: a mask image of the lips; the reference is "
+                                                     "framed around them as the default scene frames its lips")
     args = parser.parse_args(argv)
     if args.material is None:
         for option in ("blend", "save", "crop", "mask"):

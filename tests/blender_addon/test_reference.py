@@ -20,7 +20,7 @@ def test_the_frame_is_a_square_the_lips_span_their_share_of():
 
 def test_the_frame_moves_inside_the_image_and_shrinks_to_fit():
     assert lips_frame(mask_with_box(24, 24, slice(6, 18), slice(0, 12))) == (0, 4, 16, 16)  # moved right
-    assert lips_frame(mask_with_box(20, 40, slice(5, 15), slice(2, 38))) == (10, 0, 20, 20)  # shrunk to the height, centred
+    assert lips_frame(mask_with_box(20, 40, slice(5, 15), slice(2, 38))) == (10, 0, 20, 20)  # shrunk, centred
     x, y, w, h = lips_frame(mask_with_box(30, 30, slice(25, 30), slice(20, 30)))
     assert (w, h) == (13, 13) and x + w <= 30 and y + h <= 30  # a corner: still inside
 
