@@ -45,37 +45,64 @@ def pack(data: str, out: str, limit: int | None) -> None:
     print(json.dumps({"out": out, "looks": count, **manifest}))
 
 
+# Training views by name -> the EncoderConfig switches (augment, photo_views, mouth_views) that training.data's
+# encoder_views reads.
+VIEWS = {"none": (False, False, False), "augment": (True, False, False), "photo": (True, True, False),
+         "mouth": (True, True, True)}
+
+
+def training_views(batch: dict, views: str) -> dict:
+    """The batch as an encoder trained with `views` (a VIEWS name) sees it."""
+    from types import SimpleNamespace
+
+    from training.data import encoder_views
+
+    switches = dict(zip(("augment", "photo_views", "mouth_views"), VIEWS[views]))
+    return encoder_views(batch, SimpleNamespace(**switches))
+
+
 def train_once(train: tuple, held_out: tuple, wraps, size: int, width: int, steps: int, device: str,
-               views: bool = True) -> dict[str, float]:
+               views: str = "augment", blocks: int = 0, batch_norm: bool = False,
+               open_mouth_errors: bool = False) -> dict[str, float]:
     """One graphics-loss run on the first `size` of train = (renders, units); MSE and MAE on held_out (alike), and
-    'errors': the held-out absolute errors (n_val, m) in unit ranges."""
+    'errors': the held-out absolute errors (n_val, m) in unit ranges; with `open_mouth_errors`, also
+    'open_mouth_errors': the same with teeth painted on every held-out render (training.data.open_mouths, fixed
+    seed)."""
     import torch
 
-    from training.data import augment
+    from training.data import open_mouths
     from training.losses import graphics_loss, parameter_difference
     from training.networks import Encoder
 
     torch.manual_seed(0)
     (train_x, train_g), (val_x, val_g) = (t[:size] for t in train), held_out
-    encoder = Encoder(train_g.shape[1], width).to(device)
+    encoder = Encoder(train_g.shape[1], width, blocks=blocks, batch_norm=int(batch_norm)).to(device)
     optimiser = torch.optim.Adam(encoder.parameters(), lr=1e-3, betas=(0.5, 0.999))
     schedule = torch.optim.lr_scheduler.LambdaLR(optimiser, lambda s: 0.5 * (1 + math.cos(math.pi * s / steps)))
     started = time.perf_counter()
     for _ in range(steps):
         pick = torch.randint(0, size, (16,), device=device)
-        batch = {"render": train_x[pick].float() / 255}
-        batch = augment(batch) if views else batch
+        batch = training_views({"render": train_x[pick].float() / 255}, views)
         loss = graphics_loss(train_g[pick], encoder(batch["render"]), wraps)
         optimiser.zero_grad(set_to_none=True)
         loss.backward()
         optimiser.step()
         schedule.step()
     encoder.eval()
-    with torch.no_grad():
-        error = torch.cat([parameter_difference(val_g[i:i + 256], encoder(val_x[i:i + 256].float() / 255), wraps)
-                           for i in range(0, len(val_g), 256)])
-    return {"mse": float(error.square().mean()), "mae": float(error.abs().mean()),
-            "seconds": time.perf_counter() - started, "errors": error.abs().cpu().numpy()}
+
+    @torch.no_grad()
+    def held_out_errors(images):
+        return torch.cat([parameter_difference(val_g[i:i + 256], encoder(images[i:i + 256]), wraps)
+                          for i in range(0, len(val_g), 256)])
+
+    error = held_out_errors(val_x.float() / 255)
+    figures = {"mse": float(error.square().mean()), "mae": float(error.abs().mean()),
+               "seconds": time.perf_counter() - started, "errors": error.abs().cpu().numpy()}
+    if open_mouth_errors:
+        torch.manual_seed(123)
+        figures["open_mouth_errors"] = held_out_errors(open_mouths({"render": val_x.float() / 255}, chance=1.0)[
+            "render"]).abs().cpu().numpy()
+    return figures
 
 
 def sweep(packed: list[tuple[str, str]], sizes: list[int], widths: list[int], steps: int, val: int, device: str,
@@ -99,7 +126,7 @@ def sweep(packed: list[tuple[str, str]], sizes: list[int], widths: list[int], st
     sizes = [n for n in sizes if n <= usable]
     rows = []
 
-    def add(label: str, name: str, size: int, width: int, views: bool = True) -> None:
+    def add(label: str, name: str, size: int, width: int, views: str = "augment") -> None:
         renders, units, _, manifest, _ = loaded[name]
         figures = train_once((renders, units), held_out, wraps, size, width, steps, device, views)
         rows.append([label, name, manifest["samples"], size, width, f"{figures['mse']:.4f}", f"{figures['mae']:.3f}",
@@ -111,7 +138,7 @@ def sweep(packed: list[tuple[str, str]], sizes: list[int], widths: list[int], st
         add("dataset size", first, size, 32)
     for width in widths:
         add("width", first, sizes[-1], width)
-    add("no mirrored/shifted views", first, sizes[-1], 32, views=False)
+    add("no mirrored/shifted views", first, sizes[-1], 32, views="none")
     for name, _ in packed[1:]:
         add("render samples", name, min(sizes[-1], len(loaded[name][1])), 32)
     device_name = torch.cuda.get_device_name() if device.startswith("cuda") else "cpu"

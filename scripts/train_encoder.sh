@@ -2,17 +2,18 @@
 # The shipped encoders, as they were made: render the data, train, export, evaluate on fresh looks.
 #   scripts/train_encoder.sh lipstick|hair      -> blender_addon/models/<renderer>_encoder.onnx
 # Graphics loss (the paper's MIG baseline: no imitator at 64 px yet) with mirrored/shifted views, cosine lr.
-# CPU: about an hour of rendering (2 cores) and 10-15 minutes of training; add --device cuda to the train line
+# CPU: about an hour of rendering (2 cores) and 10-50 minutes of training; add --device cuda to the train line
 # on a GPU. Environment: N (looks), STEPS (optimiser steps), WORKERS (render processes).
 # Lipstick renders the default lips scene under its default (portrait) lighting, without the source X (--no-source:
-# the graphics loss does not read it), and trains with photo views.
+# the graphics loss does not read it), and trains a deeper net (a 3x3 convolution and BatchNorm a level) with photo
+# and mouth views (benchmarks/results/lighting.md, "network").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VTO=.venv/bin/vto
 RENDERER=${1:?usage: scripts/train_encoder.sh lipstick|hair}
 case $RENDERER in
-  lipstick) DATA=out/data/lip64w SEED=51 LOOKS=24000 STEPS_USED=15000 DATA_ARGS=--no-source
-            TRAIN_ARGS="--set photo_views=true" ;;
+  lipstick) DATA=out/data/lip64w SEED=51 LOOKS=24000 STEPS_USED=30000 DATA_ARGS=--no-source
+            TRAIN_ARGS="--set photo_views=true --set mouth_views=true --set blocks=1 --set batch_norm=true" ;;
   hair) DATA=out/data/hair64 SEED=301 LOOKS=5000 STEPS_USED=6000 DATA_ARGS= TRAIN_ARGS= ;;
   *) echo "usage: scripts/train_encoder.sh lipstick|hair" >&2; exit 2 ;;
 esac

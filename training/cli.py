@@ -54,6 +54,9 @@ def cmd_export(argv: list[str]) -> int:
     parser.add_argument("--encoder", required=True, help="encoder run folder")
     parser.add_argument("--out", required=True, help="the .onnx file to write")
     parser.add_argument("--opset", type=int, default=18)
+    parser.add_argument("--single-view", action="store_true",
+                        help="read each image once, not also its mirror (half the time; by default a run trained on "
+                             "mirrored views averages both readings)")
     args = parser.parse_args(argv)
-    print(json.dumps(export_encoder(args.encoder, args.out, args.opset)))
+    print(json.dumps(export_encoder(args.encoder, args.out, args.opset, mirror=not args.single_view)))
     return 0

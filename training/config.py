@@ -72,6 +72,7 @@ class EncoderConfig(CommonConfig):
     loss: str = "both"  # ablation: graphics | rendering | both
     augment: bool = False  # mirrored and shifted views of each render (training/data.augment)
     photo_views: bool = False  # what photos show and renders do not: tilt, zoom, blur, sensor noise (data.photo_views)
+    mouth_views: bool = False  # lips: open mouths with teeth and skin texture (data.open_mouths, data.skin_texture)
 
 
 # Named settings for --config NAME (a JSON file path works too). The paper's schedule is the defaults' optimiser

@@ -135,6 +135,67 @@ def photo_views(batch: dict, max_tilt: float = 0.17, zoom: tuple[float, float] =
     return {**batch, **moved, "render": (image + noise).clamp(0.0, 1.0)}
 
 
+def open_mouths(batch: dict, chance: float = 0.3) -> dict:
+    """Open mouths with teeth, which the default lips scene never shows: with probability `chance` per sample, a row
+    of teeth is painted over the mouth line (the darkest row near the centre of the render) of 'source' and 'render'
+    (B, 3, H, W): a lens of off-white, shaded towards the corners and split by darker gaps, inside a rim of dark
+    mouth. The lips' colour is not touched outside the lens; the parameters are kept."""
+    render = batch["render"]
+    count, _, height, width = render.shape
+    device, dtype = render.device, render.dtype
+
+    def uniform(low, high, *shape):
+        return torch.empty(count, *shape, device=device, dtype=dtype).uniform_(low, high)
+
+    band = slice(int(0.36 * height), max(int(0.6 * height), int(0.36 * height) + 1))
+    middle = render[:, :, band, int(0.4 * width):max(int(0.6 * width), int(0.4 * width) + 1)].mean(dim=(1, 3))
+    mouth_row = (middle.argmin(dim=1) + band.start).to(dtype) + 0.5  # (B,)
+    rows = (torch.arange(height, device=device, dtype=dtype) + 0.5).view(1, -1, 1)
+    cols = (torch.arange(width, device=device, dtype=dtype) + 0.5).view(1, 1, -1)
+    x = (cols - width * (0.5 + uniform(-0.03, 0.03, 1, 1))) / width  # (B, 1, W)
+    y = (rows - mouth_row.view(-1, 1, 1)) / height  # (B, H, 1), down is positive
+    half_width, upper, lower = uniform(0.16, 0.32, 1, 1), uniform(0.02, 0.07, 1, 1), uniform(0.015, 0.06, 1, 1)
+
+    def lens(grow):
+        taper = (1 - (x / (half_width + grow)) ** 2).clamp_min(0)
+        return (taper > 0) & (y >= -(upper + grow) * taper) & (y <= (lower + grow) * taper)
+
+    teeth, rim = lens(0.0), lens(0.015)
+    across = (x / half_width).clamp(-1, 1)
+    shade = uniform(0.55, 1.0, 1, 1) * (1 - 0.6 * across**2)  # (B, 1, W): teeth darken into the mouth's corners
+    tooth = half_width / uniform(3.0, 4.5, 1, 1)
+    gap = torch.remainder(x / tooth + 0.5, 1.0) < 0.12
+    def rgb(*values):
+        return torch.tensor(values, device=device, dtype=dtype).view(1, 3, 1, 1)
+
+    lit = (shade * torch.where(gap, 0.7, 1.0)).unsqueeze(1)  # (B, 1, 1, W)
+    teeth_colour = (rgb(0.92, 0.88, 0.80) + uniform(-0.04, 0.04, 3, 1, 1)) * lit
+    mouth_colour = rgb(0.25, 0.08, 0.08) * uniform(0.2, 1.0, 1, 1, 1)
+    painted = (torch.rand(count, device=device) < chance).view(-1, 1, 1, 1)
+    teeth, rim = (teeth.unsqueeze(1) & painted), (rim.unsqueeze(1) & painted)
+
+    def paint(image):
+        return torch.where(teeth, teeth_colour, torch.where(rim, mouth_colour, image)).clamp(0.0, 1.0)
+
+    return {**batch, **{k: paint(batch[k]) for k in ("source", "render") if k in batch}}
+
+
+def skin_texture(batch: dict, max_amplitude: float = 0.05) -> dict:
+    """Pores and blotches, which the default scene's smooth skin and lips lack: 'source' and 'render' (B, 3, H, W)
+    multiplied by 1 + a n, n a smooth zero-mean noise field of unit spread (fine, H/4 cells, and coarse, H/16),
+    a up to `max_amplitude` per sample. Colour is kept on average; the parameters are kept."""
+    render = batch["render"]
+    count, _, height, width = render.shape
+    noise = torch.zeros(count, 1, height, width, device=render.device, dtype=render.dtype)
+    for cells in (max(height // 4, 1), max(height // 16, 1)):
+        field = torch.randn(count, 1, cells, cells, device=render.device, dtype=render.dtype)
+        noise = noise + torch.nn.functional.interpolate(field, size=(height, width), mode="bicubic",
+                                                        align_corners=False)
+    noise = noise / noise.flatten(1).std(dim=1).clamp_min(1e-6).view(-1, 1, 1, 1)
+    gain = 1 + torch.rand(count, 1, 1, 1, device=render.device, dtype=render.dtype) * max_amplitude * noise
+    return {**batch, **{k: (batch[k] * gain).clamp(0.0, 1.0) for k in ("source", "render") if k in batch}}
+
+
 def augment(batch: dict, max_shift: int = 3) -> dict:
     """Views the parameters do not change: each sample mirrored left-right with probability 1/2, then the whole batch
     shifted by up to `max_shift` px each way (wrapping); 'source' and 'render' (B, 3, H, W) move together."""
@@ -147,6 +208,8 @@ def augment(batch: dict, max_shift: int = 3) -> dict:
 
 
 def encoder_views(batch: dict, config) -> dict:
-    """The views an encoder trains on, as its config asks: photo_views, then augment's mirrored and shifted ones."""
+    """The views an encoder trains on, as its config asks: open mouths and skin texture (mouth_views), photo_views,
+    then augment's mirrored and shifted ones."""
+    batch = skin_texture(open_mouths(batch)) if config.mouth_views else batch
     batch = photo_views(batch) if config.photo_views else batch
     return augment(batch) if config.augment else batch

@@ -207,6 +207,23 @@ class Encoder(nn.Module):
         return self.body(img)
 
 
+class MirrorAveraged(nn.Module):
+    """An encoder read on an image and on its left-right mirror, the two estimates averaged (wrapping outputs, such as
+    hue, on the circle): for an encoder trained on mirrored views, whose two readings differ only by its error.
+    img (B, C, H, W) -> (B, n_params); `wraps` (n_params,) bool."""
+
+    def __init__(self, encoder, wraps):
+        super().__init__()
+        self.encoder = encoder
+        self.register_buffer("wraps", torch.as_tensor(wraps, dtype=torch.bool))
+
+    def forward(self, img):
+        """img: (B, C, H, W) in [0,1] -> (B, n_params), the mean of the two readings."""
+        direct, mirrored = self.encoder(img), self.encoder(torch.flip(img, dims=[3]))
+        half_way_round = 0.5 * (torch.remainder(mirrored - direct + 0.5, 1.0) - 0.5)
+        return torch.where(self.wraps, direct + half_way_round, 0.5 * (direct + mirrored))
+
+
 _NETWORK_CLASSES = {"imitator": Imitator, "critic": Critic, "encoder": Encoder}
 
 

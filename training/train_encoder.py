@@ -78,6 +78,8 @@ def train_encoder(data: str, imitator_run: str | None, out: str, config: Encoder
     reader = DatasetReader(data)  # bad inputs fail before a run folder exists
     if config.loss in ("rendering", "both") and not imitator_run:
         raise VtoError("the rendering loss needs --imitator RUN (or --set loss=graphics)")
+    if config.mouth_views and reader.spec.renderer != "lipstick":
+        raise VtoError(f"mouth_views paints teeth over lips: a {reader.spec.renderer} dataset has none")
     with processes(config.device) as procs:
         return _train_encoder(reader, data, imitator_run, out, config, procs)
 

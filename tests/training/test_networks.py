@@ -5,7 +5,7 @@ import pytest
 pytestmark = pytest.mark.torch
 torch = pytest.importorskip("torch")
 
-from training.networks import Critic, Encoder, Imitator, build  # noqa: E402
+from training.networks import Critic, Encoder, Imitator, MirrorAveraged, build  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 
 
@@ -158,6 +158,30 @@ def test_encoder_refuses_wrong_channels_and_tiny_images():
         encoder(torch.rand(1, 1, 16, 16))
     with pytest.raises(VtoError, match="below 1 px"):
         encoder(_images(1, 8))
+
+
+def test_mirror_averaging_is_the_mean_of_both_readings_and_wraps_hue_on_the_circle():
+    torch.manual_seed(0)
+    encoder = Encoder(n_params=3, width=4, n_layers=2).eval()
+    images = _images(4, 16)
+    with torch.no_grad():
+        averaged = MirrorAveraged(encoder, [False, False, False])(images)
+        expected = 0.5 * (encoder(images) + encoder(images.flip(-1)))
+    assert torch.allclose(averaged, expected, atol=1e-6)
+    with torch.no_grad():  # a symmetric image reads the same both ways
+        symmetric = images + images.flip(-1)
+        assert torch.allclose(MirrorAveraged(encoder, [False] * 3)(symmetric), encoder(symmetric), atol=1e-6)
+
+    class CornerReader(torch.nn.Module):  # reads the top-left pixel's three channels as the estimate
+        def forward(self, img):
+            return img[:, :, 0, 0]
+
+    image = torch.zeros(1, 3, 2, 2)
+    image[0, :, 0, 0] = torch.tensor([0.95, 0.95, 0.3])  # left: mirrored, the reading comes from the right pixel
+    image[0, :, 0, 1] = torch.tensor([0.05, 0.05, 0.5])
+    read = MirrorAveraged(CornerReader(), [True, False, False])(image)[0]
+    assert read[0] == pytest.approx(1.0, abs=1e-6)  # 0.95 and 0.05 meet at 0 = 1 on the circle, not at 0.5
+    assert read[1] == pytest.approx(0.5) and read[2] == pytest.approx(0.4)
 
 
 @pytest.mark.parametrize(

@@ -115,14 +115,33 @@ def test_encoder_with_rendering_loss_trains_through_the_imitator(lipstick_datase
     assert not (tmp_path / "none").exists()
 
 
-def test_a_batch_norm_encoder_trains_and_exports_with_its_running_statistics(lipstick_dataset, tmp_path):
+def test_a_batch_norm_encoder_trains_and_exports_mirror_averaged_with_its_running_statistics(lipstick_dataset,
+                                                                                              tmp_path):
     config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=5", "loss=graphics", "blocks=1",
-                                                                 "batch_norm=true"])
+                                                                 "batch_norm=true", "augment=true"])
     run = train_encoder(str(lipstick_dataset), None, str(tmp_path / "bn"), config)
     state = run.load_checkpoint()
     assert state["model_args"]["blocks"] == 1 and state["model_args"]["batch_norm"] == 1
     assert any(k.endswith("running_var") and not torch.all(v == 1) for k, v in state["model"].items())
     assert export_encoder(str(run.path), str(tmp_path / "bn.onnx"))["max_abs_diff"] <= 1e-4
+    # trained on mirrored views: the file reads each image and its mirror and averages the two
+    import onnx
+
+    metadata = {p.key: p.value for p in onnx.load(str(tmp_path / "bn.onnx")).metadata_props}
+    assert metadata["vto.mirror_averaged"] == "true"
+    from training.networks import build
+
+    encoder = build("encoder", state["model_args"])
+    encoder.load_state_dict(state["model"])
+    encoder.eval()
+    images = np.random.default_rng(1).random((3, 3, 16, 16), dtype=np.float32)
+    with torch.no_grad():
+        direct, mirrored = (encoder(torch.from_numpy(x)).numpy() for x in (images, images[..., ::-1].copy()))
+    got = EncoderSession(tmp_path / "bn.onnx").predict_unit_nchw(images)
+    assert np.abs(got - 0.5 * (direct + mirrored)).max() <= 1e-4 and np.abs(direct - mirrored).max() > 1e-3
+    single = export_encoder(str(run.path), str(tmp_path / "single.onnx"), mirror=False)  # vto export --single-view
+    assert single["mirror_averaged"] is False
+    assert np.abs(EncoderSession(tmp_path / "single.onnx").predict_unit_nchw(images) - direct).max() <= 1e-4
 
 
 def test_export_matches_torch_and_refuses_another_spec(lipstick_dataset, tmp_path):
@@ -136,6 +155,7 @@ def test_export_matches_torch_and_refuses_another_spec(lipstick_dataset, tmp_pat
     onnx.checker.check_model(model)
     metadata = {p.key: p.value for p in model.metadata_props}
     assert metadata["vto.renderer"] == "lipstick" and metadata["vto.input_size"] == "16x16"
+    assert metadata["vto.mirror_averaged"] == "false"  # trained without mirrored views: read once
     spec = get_spec("lipstick", "opacity,red,green,blue")
     session = EncoderSession(tmp_path / "encoder.onnx", expected_spec=spec)
     sample = DatasetReader(lipstick_dataset)[0]
@@ -255,3 +275,19 @@ def test_an_encoder_trains_on_a_dataset_without_sources_and_the_imitator_refuses
     reader = DatasetReader(str(data))  # one image a look: 12 looks of 16 px RGB float32 fit in exactly that
     assert RenderDataset(reader, list(range(12)), cache_bytes=12 * 16 * 16 * 3 * 4, need_source=False).cache == {}
     assert RenderDataset(reader, list(range(12)), cache_bytes=12 * 16 * 16 * 3 * 4 - 1, need_source=False).cache is None
+
+
+def test_mouth_views_train_a_lipstick_encoder_and_are_refused_for_hair(lipstick_dataset, tmp_path):
+    pytest.importorskip("bpy")
+    from blender_addon.commands import cmd_dataset
+
+    config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=3", "loss=graphics", "mouth_views=true",
+                                                                 "photo_views=true", "augment=true"])
+    last = train_encoder(str(lipstick_dataset), None, str(tmp_path / "lips"), config).read_log()[-1]
+    assert np.isfinite(last["graphics"]) and last["step"] == 3
+    hair = tmp_path / "hair"
+    assert cmd_dataset(["hair", "--out", str(hair), "--n", "2", "--seed", "3", "--res", "16", "--samples", "2",
+                        "--quiet"]) == 0
+    with pytest.raises(VtoError, match="mouth_views paints teeth over lips: a hair dataset has none"):
+        train_encoder(str(hair), None, str(tmp_path / "hair_run"), config)
+    assert not (tmp_path / "hair_run").exists()
