@@ -109,6 +109,9 @@ def cmd_dataset(argv: list[str]) -> int:
     parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
                         help="lipstick, default scene: portrait (a frontal key, neutral light, metered exposure; the "
                              "default) or wide (any HDRI, any rotation)")
+    parser.add_argument("--vary", default="", help="comma-separated unmodelled inputs to draw uniformly over their "
+                                                    "ranges per look (e.g. gloss_roughness), so the encoder learns to "
+                                                    "look past them")
     parser.add_argument("--workers", type=int, default=1, help="Blender processes on this machine")
     parser.add_argument("--restart-every", type=int, default=500, help="samples per worker process before a restart")
     parser.add_argument("--worker", default=None, help=argparse.SUPPRESS)
@@ -136,7 +139,8 @@ def cmd_dataset(argv: list[str]) -> int:
             raise VtoError(f"no lipstick input visibly changes {args.blend}: nothing to model")
     shard = parse_shard(args.shard) if args.shard else shard_from_env()
     job = DatasetJob(args.renderer, args.out, args.n, args.seed, args.res, args.samples, params, args.sensitivity,
-                     args.uniform_ratio, args.source_folder, scene, args.lighting, not args.no_source)
+                     args.uniform_ratio, args.source_folder, scene, args.lighting, not args.no_source,
+                     tuple(name for name in args.vary.split(",") if name))
     indices = shard_range(job.n, shard)
     if args.worker is not None:  # one of run_workers' processes: its share of the shard, then exit
         run_in_process(job, worker_indices(indices, parse_shard(args.worker)), args.limit, quiet=True)

@@ -23,6 +23,7 @@ from .lipstick import linked_inputs, scene_values
 from .render import sample_setting
 
 _SOURCE_STREAM = 7
+_VARY_STREAM = 8
 
 
 @dataclass
@@ -42,6 +43,7 @@ class DatasetJob:
     scene: str | None = None  # lipstick: render this scene of the open .blend instead of the default
     lighting: str | None = None  # lipstick, default scene: "wide" or "portrait" (scene_lips; None: its default)
     source_images: bool = True  # False: no X written (and for lipstick none rendered): graphics-loss encoder data
+    vary: tuple[str, ...] = ()  # unmodelled inputs drawn per look over their ranges: the encoder learns to look past
     spec: RendererSpec = field(init=False)
 
     def __post_init__(self):
@@ -60,6 +62,11 @@ class DatasetJob:
         if self.source_folder is not None and not Path(self.source_folder).is_dir():
             raise VtoError(f"--source-folder {self.source_folder} is not a folder")
         self.spec = get_spec(self.renderer, self.params)
+        self.vary = tuple(self.vary)
+        for name in self.vary:
+            param = self.spec.by_name.get(name)
+            if param is None or name in self.spec.modelled or not np.isfinite(param.high):
+                raise VtoError(f"--vary takes unmodelled {self.renderer} inputs with a finite range, got '{name}'")
         if self.sensitivity and not self.source_images:
             raise VtoError("--sensitivity renders are for the imitator, which needs the source images: drop --no-source")
         if self.renderer == "lipstick" and self.scene is None:
@@ -77,6 +84,10 @@ class DatasetJob:
         settings["params"] = list(self.spec.modelled)
         if self.source_images:  # recorded only when left out, so datasets made before the option still resume
             del settings["source_images"]
+        if self.vary:  # likewise recorded only when used
+            settings["vary"] = list(self.vary)
+        else:
+            del settings["vary"]
         images = "16-bit PNG, display sRGB (Standard view transform)"
         if self.scene is not None:  # a user's scene: its own settings where no flag overrode them, its own values
             scene = bpy.data.scenes[self.scene]
@@ -98,6 +109,12 @@ class DatasetJob:
             "blender_version": bpy.app.version_string,
             "vto_version": vto_core.__version__,
         }
+
+
+def varied_values(job: DatasetJob, index: int) -> dict[str, float]:
+    """The job's --vary inputs for sample `index`: each uniform over its range, a pure function of (seed, index)."""
+    rng = np.random.default_rng([job.seed, index, _VARY_STREAM])
+    return {name: float(rng.uniform(job.spec.by_name[name].low, job.spec.by_name[name].high)) for name in job.vary}
 
 
 def source_id(seed: int, index: int) -> int:
@@ -135,6 +152,7 @@ class SampleRenderer:
         values = [spec.values(spec.denormalise(u)) for u in variants]
         if self.user_scene is not None:  # the artist's values, only the modelled inputs sampled
             values = [{**self.own_values, **{name: v[name] for name in spec.modelled}} for v in values]
+        values = [{**v, **varied_values(job, index)} for v in values]  # one scene for every render of a sample
         source = source_id(job.seed, index)
         cycles_seed = index  # one seed for every render of a sample: sensitivity differences share its noise
         if job.renderer == "lipstick":

@@ -22,12 +22,12 @@ mount_all
 (cd "$PROJECT" && "$PY" scripts/build_extension.py --out "$CACHE/build" --platform linux-x64 \
     --wheels "${VTO_WHEEL_CACHE:-$CACHE/wheels}" | tail -1 > "$CACHE/zip_path")
 cp "$(cat "$CACHE/zip_path")" "$P/vto_match.zip"
-mkdir -p "$CACHE/refs"
-[ -f "$CACHE/refs/lips_ref.png" ] || "$(dirname "$PY")/vto" render lipstick --params "preset:Classic Red" \
-    --res 128 --samples 16 --out "$CACHE/refs/lips_ref.png" > /dev/null
-[ -f "$CACHE/refs/hair_ref.png" ] || "$(dirname "$PY")/vto" render hair --params '{"hue": 0.08, "saturation": 1.6}' \
-    --res 128 --samples 8 --out "$CACHE/refs/hair_ref.png" > /dev/null
-cp "$CACHE/refs/lips_ref.png" "$CACHE/refs/hair_ref.png" "$HERE/stage1_install.py" "$HERE/stage2_gui.py" "$P/"
+# Rendered afresh each run (seconds): a cached one would keep an older scene's lighting after the scene changes.
+"$(dirname "$PY")/vto" render lipstick --params "preset:Classic Red" --res 128 --samples 16 \
+    --out "$P/lips_ref.png" > /dev/null
+"$(dirname "$PY")/vto" render hair --params '{"hue": 0.08, "saturation": 1.6}' --res 128 --samples 8 \
+    --out "$P/hair_ref.png" > /dev/null
+cp "$HERE/stage1_install.py" "$HERE/stage2_gui.py" "$P/"
 
 # 1. blender -b: install from disk into a fresh user folder, save the preferences, save lips.blend.
 chroot "$R" env HOME=/probe BLENDER_USER_RESOURCES=/probe/user blender -b --factory-startup \

@@ -129,6 +129,8 @@ def test_two_workers_make_the_same_files(tmp_path):
     (["--n", "4", "--res", "4"], "--res must be in [8, 4096]"),
     (["--n", "4", "--uniform-ratio", "1.5"], "--uniform-ratio must be in [0, 1]"),
     (["--n", "4", "--source-folder", "/no/such/folder"], "is not a folder"),
+    (["--n", "4", "--params", "red,gloss", "--vary", "red"], "--vary takes unmodelled lipstick inputs"),
+    (["--n", "4", "--vary", "shimmer"], "--vary takes unmodelled lipstick inputs"),
 ])
 def test_bad_arguments_are_clear_errors_and_write_nothing(tmp_path, capsys, argv, message):
     out = tmp_path / "bad"
@@ -219,3 +221,22 @@ def test_no_source_counts_one_render_a_lipstick_look():
 
     assert renders_per_sample(DatasetJob("lipstick", "x", 1)) == 2
     assert renders_per_sample(DatasetJob("lipstick", "x", 1, source_images=False)) == 1
+
+
+def test_vary_draws_an_unmodelled_input_per_look_and_keeps_the_sampled_ones(tmp_path):
+    """--vary gloss_roughness: each look its own roughness over [0, 1], the modelled values as without it."""
+    make(tmp_path / "plain", 4)
+    make(tmp_path / "varied", 4, "--vary", "gloss_roughness")
+    plain, varied = DatasetReader(tmp_path / "plain"), DatasetReader(tmp_path / "varied")
+    assert varied.manifest["vary"] == ["gloss_roughness"] and "vary" not in plain.manifest
+    roughness = []
+    for i in range(4):
+        before = json.loads((plain.root / "samples" / f"{i:07d}" / "params.json").read_text())
+        after = json.loads((varied.root / "samples" / f"{i:07d}" / "params.json").read_text())
+        assert after["unit"] == before["unit"] and after["source"] == before["source"]
+        assert before["values"]["gloss_roughness"] == 0.3
+        roughness.append(after["values"]["gloss_roughness"])
+    assert all(0.0 <= r <= 1.0 for r in roughness) and len(set(roughness)) == 4
+    assert any(not np.array_equal(plain[i].render, varied[i].render) for i in range(4))  # the coat shows it
+    make(tmp_path / "again", 4, "--vary", "gloss_roughness")  # a pure function of (seed, index)
+    assert tree_hashes(tmp_path / "again") == tree_hashes(tmp_path / "varied")
