@@ -2,9 +2,10 @@
 
 The same looks and sources rendered under each lighting (`vto dataset lipstick --seed S --lighting L`), packed with
 bench_encoder_scaling's `pack`, then one small CNN trained the same way on each (graphics loss, mirrored/shifted
-views, bench_encoder_scaling.train_once) for each training size. Reported on the held-out last --val looks: the
-median colour error in 8-bit steps (|R|, |G| and |B| errors pooled) on looks with opacity >= 0.5, and the mean
-errors of opacity, gloss and reflection as a share of their encoded ranges.
+views, bench_encoder_scaling.train_once) for each training size; --network adds deeper nets, BatchNorm, other
+views and other lengths of training, and a colour column for held-out looks with teeth painted in. Reported on
+the held-out last --val looks: the median colour error in 8-bit steps (|R|, |G| and |B| errors pooled) on looks
+with opacity >= 0.5, and the mean errors of opacity, gloss and reflection as a share of their encoded ranges.
 
     python -m benchmarks.bench_encoder_scaling pack --data data/lip64_wide --out wide.npz
     python -m benchmarks.bench_encoder_scaling pack --data data/lip64_portrait --out portrait.npz
@@ -88,12 +89,12 @@ def run(packed: list[tuple[str, str]], sizes: list[int], steps: int, val: int, w
         held_out = (renders[-val:], units[-val:])
         truth = units[-val:].cpu().numpy()
         for network in networks:
+            network_steps = network.steps or steps
             for size in [n for n in sizes if n <= len(units) - val]:
-                figures = train_once((renders, units), held_out, wraps, size, width, network.steps or steps, device,
-                                     network.views,
-                                     network.blocks, network.batch_norm, open_mouth_errors=True)
+                figures = train_once((renders, units), held_out, wraps, size, width, network_steps, device,
+                                     network.views, network.blocks, network.batch_norm, open_mouth_errors=True)
                 open_mouths = colour_and_other_errors(figures.pop("open_mouth_errors"), truth, list(spec.modelled))
-                result = {"lighting": name, "network": network.name, "looks": size, "steps": network.steps or steps,
+                result = {"lighting": name, "network": network.name, "looks": size, "steps": network_steps,
                           **colour_and_other_errors(figures.pop("errors"), truth, list(spec.modelled)),
                           "open_mouth_colour_median_255": open_mouths["colour_median_255"],
                           "seconds": round(figures["seconds"], 1), "res": manifest["res"], "spp": manifest["samples"]}
