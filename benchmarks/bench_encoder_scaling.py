@@ -95,13 +95,14 @@ def train_once(train: tuple, held_out: tuple, wraps, size: int, width: int, step
         return torch.cat([parameter_difference(val_g[i:i + 256], encoder(images[i:i + 256]), wraps)
                           for i in range(0, len(val_g), 256)])
 
-    error = held_out_errors(val_x.float() / 255)
+    held_out_images = val_x.float() / 255
+    error = held_out_errors(held_out_images)
     figures = {"mse": float(error.square().mean()), "mae": float(error.abs().mean()),
                "seconds": time.perf_counter() - started, "errors": error.abs().cpu().numpy()}
     if open_mouth_errors:
         torch.manual_seed(123)
-        figures["open_mouth_errors"] = held_out_errors(open_mouths({"render": val_x.float() / 255}, chance=1.0)[
-            "render"]).abs().cpu().numpy()
+        with_teeth = open_mouths({"render": held_out_images}, chance=1.0)["render"]
+        figures["open_mouth_errors"] = held_out_errors(with_teeth).abs().cpu().numpy()
     return figures
 
 

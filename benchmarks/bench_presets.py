@@ -43,13 +43,18 @@ def match_presets(model: str, sources: range, lighting: str | None, res: int = 6
     return found
 
 
+def median_channel_error(found: dict[str, dict]) -> float:
+    """The median of every preset's every channel error (match_presets' output)."""
+    return float(np.median(np.concatenate([f["errors"].ravel() for f in found.values()])))
+
+
 def roughness_section(name: str, model: str, roughness: list[float], sources: range, lighting: str,
                       results: Path) -> None:
     """Every preset at each Gloss Roughness: the median channel error and Classic Red's median estimate."""
     rows = []
     for value in roughness:
         found = match_presets(model, sources, lighting, overrides={"gloss_roughness": value})
-        overall = float(np.median(np.concatenate([f["errors"].ravel() for f in found.values()])))
+        overall = median_channel_error(found)
         red = np.median(found["Classic Red"]["estimates"], axis=0)
         rows.append([f"{value:g}", f"{overall:.1f}", "({:.0f}, {:.0f}, {:.0f})".format(*red)])
         print(json.dumps({"model": name, "gloss_roughness": value, "median_channel_error": overall}), flush=True)
@@ -85,7 +90,7 @@ def main() -> None:
                               Path(args.results))
             continue
         found = match_presets(model, sources, lighting)
-        overall = float(np.median(np.concatenate([f["errors"].ravel() for f in found.values()])))
+        overall = median_channel_error(found)
         rows = [[preset, "({:.0f}, {:.0f}, {:.0f})".format(*f["set"]),
                  "({:.0f}, {:.0f}, {:.0f})".format(*np.median(f["estimates"], axis=0)),
                  f"{np.median(f['errors']):.1f}"] for preset, f in found.items()]

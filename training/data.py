@@ -108,6 +108,11 @@ def make_loader(dataset: RenderDataset, batch_size: int, seed: int, num_workers:
                       generator=generator, num_workers=num_workers)
 
 
+def _on_images(batch: dict, change) -> dict:
+    """The batch with `change` applied to each of its 'source' and 'render' images (the others kept)."""
+    return {**batch, **{k: change(batch[k]) for k in ("source", "render") if k in batch}}
+
+
 def photo_views(batch: dict, max_tilt: float = 0.17, zoom: tuple[float, float] = (0.8, 1.25),
                 max_blur: float = 1.0, max_noise: float = 0.02) -> dict:
     """What a photo of lips shows and a render does not, at random per sample: a tilt of up to `max_tilt` rad, the
@@ -122,8 +127,8 @@ def photo_views(batch: dict, max_tilt: float = 0.17, zoom: tuple[float, float] =
     theta = torch.stack([torch.stack([cos, -sin, torch.zeros_like(cos)], -1),
                          torch.stack([sin, cos, torch.zeros_like(cos)], -1)], 1)  # (B, 2, 3): output -> input
     grid = torch.nn.functional.affine_grid(theta, list(render.shape), align_corners=False)
-    moved = {k: torch.nn.functional.grid_sample(batch[k], grid, padding_mode="border", align_corners=False)
-             for k in ("source", "render") if k in batch}
+    moved = _on_images(batch, lambda image: torch.nn.functional.grid_sample(image, grid, padding_mode="border",
+                                                                            align_corners=False))
     sigma = torch.rand(count, device=device) * max_blur
     offsets = torch.arange(-2, 3, device=device, dtype=render.dtype)
     kernel = torch.exp(-0.5 * (offsets[None] / sigma.clamp_min(1e-3)[:, None]) ** 2)
@@ -132,7 +137,7 @@ def photo_views(batch: dict, max_tilt: float = 0.17, zoom: tuple[float, float] =
     image = sum(kernel[:, i, None, None, None] * image[..., i:i + image.shape[-2] - 4, :] for i in range(5))
     image = sum(kernel[:, i, None, None, None] * image[..., i:i + image.shape[-1] - 4] for i in range(5))
     noise = torch.randn_like(image) * (torch.rand(count, 1, 1, 1, device=device) * max_noise)
-    return {**batch, **moved, "render": (image + noise).clamp(0.0, 1.0)}
+    return {**moved, "render": (image + noise).clamp(0.0, 1.0)}
 
 
 def open_mouths(batch: dict, chance: float = 0.3) -> dict:
@@ -165,6 +170,7 @@ def open_mouths(batch: dict, chance: float = 0.3) -> dict:
     shade = uniform(0.55, 1.0, 1, 1) * (1 - 0.6 * across**2)  # (B, 1, W): teeth darken into the mouth's corners
     tooth = half_width / uniform(3.0, 4.5, 1, 1)
     gap = torch.remainder(x / tooth + 0.5, 1.0) < 0.12
+
     def rgb(*values):
         return torch.tensor(values, device=device, dtype=dtype).view(1, 3, 1, 1)
 
@@ -174,10 +180,8 @@ def open_mouths(batch: dict, chance: float = 0.3) -> dict:
     painted = (torch.rand(count, device=device) < chance).view(-1, 1, 1, 1)
     teeth, rim = (teeth.unsqueeze(1) & painted), (rim.unsqueeze(1) & painted)
 
-    def paint(image):
-        return torch.where(teeth, teeth_colour, torch.where(rim, mouth_colour, image)).clamp(0.0, 1.0)
-
-    return {**batch, **{k: paint(batch[k]) for k in ("source", "render") if k in batch}}
+    return _on_images(batch, lambda image: torch.where(teeth, teeth_colour, torch.where(rim, mouth_colour, image))
+                      .clamp(0.0, 1.0))
 
 
 def skin_texture(batch: dict, max_amplitude: float = 0.05) -> dict:
@@ -193,18 +197,17 @@ def skin_texture(batch: dict, max_amplitude: float = 0.05) -> dict:
                                                         align_corners=False)
     noise = noise / noise.flatten(1).std(dim=1).clamp_min(1e-6).view(-1, 1, 1, 1)
     gain = 1 + torch.rand(count, 1, 1, 1, device=render.device, dtype=render.dtype) * max_amplitude * noise
-    return {**batch, **{k: (batch[k] * gain).clamp(0.0, 1.0) for k in ("source", "render") if k in batch}}
+    return _on_images(batch, lambda image: (image * gain).clamp(0.0, 1.0))
 
 
 def augment(batch: dict, max_shift: int = 3) -> dict:
     """Views the parameters do not change: each sample mirrored left-right with probability 1/2, then the whole batch
     shifted by up to `max_shift` px each way (wrapping); 'source' and 'render' (B, 3, H, W) move together."""
-    images = {k: batch[k] for k in ("source", "render") if k in batch}
-    first = next(iter(images.values()))
+    first = batch["source"] if "source" in batch else batch["render"]
     mirrored = (torch.rand(len(first), device=first.device) < 0.5).view(-1, 1, 1, 1)
     dy, dx = (int(v) for v in torch.randint(-max_shift, max_shift + 1, (2,)))
-    moved = {k: torch.roll(torch.where(mirrored, v.flip(-1), v), (dy, dx), dims=(-2, -1)) for k, v in images.items()}
-    return {**batch, **moved}
+    return _on_images(batch, lambda image: torch.roll(torch.where(mirrored, image.flip(-1), image), (dy, dx),
+                                                      dims=(-2, -1)))
 
 
 def encoder_views(batch: dict, config) -> dict:
