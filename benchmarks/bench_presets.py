@@ -5,9 +5,10 @@ the lighting asked for), the encoder's estimate of each, and the per-channel |er
 steps. Reported per preset (the median estimate and median error over its sources) and over all presets (the median
 of every channel error), per model, into benchmarks/results/presets.md.
 
---roughness R,... renders every preset again with its Gloss Roughness (not modelled: the training renders hold it
-at its default) set to each R, and reports how far the estimates move: the median channel error over all presets,
-and Classic Red's estimate, at each R, in the section roughness-NAME.
+--roughness R,... renders every preset again with its Gloss Roughness (not modelled: an encoder can only learn to
+look past it, from data made with `vto dataset --vary gloss_roughness`) set to each R, and reports how far the
+estimates move: the median channel error over all presets, and Classic Red's estimate, at each R, in the section
+roughness-NAME.
 
     python -m benchmarks.bench_presets --model NAME=blender_addon/models/lipstick_encoder.onnx [--lighting portrait]
     python -m benchmarks.bench_presets --model NAME=MODEL.onnx --roughness 0.05,0.3,0.6,0.9
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
 from pathlib import Path
 
 import numpy as np
@@ -60,13 +62,13 @@ def roughness_section(name: str, model: str, roughness: list[float], sources: ra
         print(json.dumps({"model": name, "gloss_roughness": value, "median_channel_error": overall}), flush=True)
     write_section("presets", f"roughness-{name}", (
         f"## {name} ({Path(model).name}) against the coat's roughness, {lighting} lighting\n\n"
-        f"Every lipstick preset rendered with its Gloss Roughness set to each value (the training renders hold it at "
-        f"its default, 0.3; the presets use 0.05-1) on default sources {sources.start}-{sources.stop - 1} (64 px, "
-        f"16 spp) and estimated: the median |error| of R, G and B over all presets, and the median estimate of "
+        f"Every lipstick preset rendered with its Gloss Roughness set to each value (not modelled; its default is "
+        f"0.3, the presets use 0.05-1) on default sources {sources.start}-{sources.stop - 1} (64 px, 16 spp) and "
+        f"estimated: the median |error| of R, G and B over all presets, and the median estimate of "
         f"Classic Red (set (190, 20, 35)).\n\n"
         + table(["gloss roughness", "median channel error /255", "Classic Red estimated"], rows)
-        + f"\n\nReproduce: `python -m benchmarks.bench_presets --model {name}={model} --lighting {lighting} "
-          f"--roughness {','.join(f'{v:g}' for v in roughness)}`."), results=results)
+        + f"\n\nReproduce: `python -m benchmarks.bench_presets --model {shlex.quote(f'{name}={model}')} "
+          f"--lighting {lighting} --roughness {','.join(f'{v:g}' for v in roughness)}`."), results=results)
 
 
 def main() -> None:
@@ -101,7 +103,8 @@ def main() -> None:
             f"(64 px, 16 spp) and estimated; the median estimate over those sources, and the median |error| of its "
             f"R, G and B in 8-bit steps.\n\n"
             + table(["preset", "set (R, G, B)", "estimated (median)", "median channel error /255"], rows)
-            + f"\n\nReproduce: `python -m benchmarks.bench_presets --model {name}={model} --lighting {lighting}`."),
+            + f"\n\nReproduce: `python -m benchmarks.bench_presets --model {shlex.quote(f'{name}={model}')} "
+              f"--lighting {lighting}`."),
             results=Path(args.results))
 
 

@@ -18,10 +18,11 @@ def _check_device(device: str) -> None:
 
 
 def cmd_train(argv: list[str]) -> int:
-    """vto train imitator --data DIR --out RUN | vto train encoder --data DIR --imitator RUN --out RUN."""
+    """vto train imitator|encoder --data DIR [DIR ...] [--imitator RUN] --out RUN: train on one or more datasets."""
     parser = ArgumentParser(prog="vto train", description="train the imitator or the encoder (paper 5, 6.2)")
     parser.add_argument("kind", choices=["imitator", "encoder"])
-    parser.add_argument("--data", required=True, help="a `vto dataset` folder")
+    parser.add_argument("--data", required=True, nargs="+", metavar="DIR",
+                        help="a `vto dataset` folder, or several of one spec read as one (held out: the last's tail)")
     parser.add_argument("--out", required=True, help="run folder (resumed if it holds a checkpoint)")
     parser.add_argument("--imitator", default=None, help="encoder: the imitator run for the rendering loss")
     parser.add_argument("--config", default=None, help="JSON file of settings")

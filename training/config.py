@@ -182,3 +182,9 @@ def with_epochs(config, n_train: int):
 def config_dict(config) -> dict:
     """JSON-ready dict of a config (what is saved beside checkpoints)."""
     return dataclasses.asdict(config)
+
+
+def data_record(data) -> str | list[str]:
+    """The --data folder (or folders) as a run's saved config holds them: one as a string, several as a list."""
+    folders = [str(data)] if isinstance(data, (str, Path)) else [str(folder) for folder in data]
+    return folders[0] if len(folders) == 1 else folders

@@ -6,11 +6,11 @@ import dataclasses
 
 import torch
 
-from vto_core.dataset import DatasetReader
+from vto_core.dataset import DatasetReader, DatasetUnion, open_datasets
 from vto_core.errors import VtoError
 from vto_core.specs import RendererSpec
 
-from .config import EncoderConfig, config_dict, with_epochs
+from .config import EncoderConfig, config_dict, data_record, with_epochs
 from .data import RenderDataset, encoder_views, make_loader, per_process_batch, split, training_batches
 from .distributed import Processes, processes
 from .losses import PerceptualDistance, graphics_loss, parameter_difference, weighted_total
@@ -70,12 +70,12 @@ def parameter_error(encoder: Encoder, loader, device: str, wraps=None) -> float:
     return total / count
 
 
-def train_encoder(data: str, imitator_run: str | None, out: str, config: EncoderConfig) -> RunFolder:
+def train_encoder(data: str | list[str], imitator_run: str | None, out: str, config: EncoderConfig) -> RunFolder:
     """Train (or resume) an encoder run in `out`; the imitator is needed unless loss == 'graphics'.
 
     Under torchrun every process calls this (see training.distributed); rank 0 writes the run folder.
     """
-    reader = DatasetReader(data)  # bad inputs fail before a run folder exists
+    reader = open_datasets(data)  # bad inputs fail before a run folder exists
     if config.loss in ("rendering", "both") and not imitator_run:
         raise VtoError("the rendering loss needs --imitator RUN (or --set loss=graphics)")
     if config.mouth_views and reader.spec.renderer != "lipstick":
@@ -84,8 +84,8 @@ def train_encoder(data: str, imitator_run: str | None, out: str, config: Encoder
         return _train_encoder(reader, data, imitator_run, out, config, procs)
 
 
-def _train_encoder(reader: DatasetReader, data: str, imitator_run: str | None, out: str, config: EncoderConfig,
-                   procs: Processes) -> RunFolder:
+def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], imitator_run: str | None, out: str,
+                   config: EncoderConfig, procs: Processes) -> RunFolder:
     # 1. Data and the frozen imitator (the rendering loss) first: bad inputs leave no run folder behind.
     device = procs.device
     use_rendering = config.loss in ("rendering", "both")
@@ -97,7 +97,7 @@ def _train_encoder(reader: DatasetReader, data: str, imitator_run: str | None, o
     config = with_epochs(config, len(train_positions))
     run = RunFolder(out)
     if procs.is_main:
-        run.save_config({**config_dict(config), "kind": "encoder", "data": str(data), "imitator": imitator_run,
+        run.save_config({**config_dict(config), "kind": "encoder", "data": data_record(data), "imitator": imitator_run,
                          "spec": reader.spec.to_dict()})
     procs.barrier()
     runtime = dataclasses.replace(config, device=device)  # this process's device (cuda:LOCAL_RANK under torchrun)

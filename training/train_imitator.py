@@ -6,9 +6,9 @@ import dataclasses
 
 import torch
 
-from vto_core.dataset import DatasetReader
+from vto_core.dataset import DatasetReader, DatasetUnion, open_datasets
 
-from .config import ImitatorConfig, config_dict, with_epochs
+from .config import ImitatorConfig, config_dict, data_record, with_epochs
 from .data import RenderDataset, make_loader, per_process_batch, split, training_batches
 from .distributed import Processes, processes
 from .losses import PerceptualDistance, critic_loss, generator_adversarial_loss, sensitivity_loss, weighted_total
@@ -77,17 +77,18 @@ def evaluate(imitator: Imitator, loader, perceptual: PerceptualDistance, device:
     return {name: value / count for name, value in sums.items()}
 
 
-def train_imitator(data: str, out: str, config: ImitatorConfig) -> RunFolder:
+def train_imitator(data: str | list[str], out: str, config: ImitatorConfig) -> RunFolder:
     """Train (or resume) an imitator run in `out` on the dataset folder `data`.
 
     Under torchrun every process calls this (see training.distributed); rank 0 writes the run folder.
     """
-    reader = DatasetReader(data)  # before the run folder exists: a bad --data leaves nothing behind
+    reader = open_datasets(data)  # before the run folder exists: a bad --data leaves nothing behind
     with processes(config.device) as procs:
         return _train_imitator(reader, data, out, config, procs)
 
 
-def _train_imitator(reader: DatasetReader, data: str, out: str, config: ImitatorConfig, procs: Processes) -> RunFolder:
+def _train_imitator(reader: DatasetReader | DatasetUnion, data: str | list[str], out: str, config: ImitatorConfig,
+                    procs: Processes) -> RunFolder:
     # 1. Data, resolved config, run folder.
     device = procs.device
     train_positions, val_positions = split(reader, config.val_fraction)
@@ -95,7 +96,8 @@ def _train_imitator(reader: DatasetReader, data: str, out: str, config: Imitator
     train_set = RenderDataset(reader, train_positions, need_sensitivity=config.use_sensitivity)
     run = RunFolder(out)
     if procs.is_main:
-        run.save_config({**config_dict(config), "kind": "imitator", "data": str(data), "spec": reader.spec.to_dict()})
+        run.save_config({**config_dict(config), "kind": "imitator", "data": data_record(data),
+                         "spec": reader.spec.to_dict()})
     procs.barrier()
     runtime = dataclasses.replace(config, device=device)  # this process's device (cuda:LOCAL_RANK under torchrun)
     torch.manual_seed(config.seed)

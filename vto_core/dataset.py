@@ -205,3 +205,37 @@ class DatasetReader:
         return Sample(index, source, read_image(folder / "render.png")[0],
                       np.array(record["unit"], np.float32), np.array(record["raw"]), sensitivity, sensitivity_unit,
                       mask, record)
+
+
+class DatasetUnion:
+    """Several datasets of one spec and size read as one (same interface as DatasetReader): positions run through
+    them in the order given, so a training split's held-out tail comes from the last one."""
+
+    def __init__(self, roots: list[str | os.PathLike]):
+        self.parts = [DatasetReader(root) for root in roots]
+        first = self.parts[0]
+        for part in self.parts[1:]:
+            for what, mine, theirs in (("spec", first.spec.to_dict(), part.spec.to_dict()),
+                                       ("image size", first.manifest["res"], part.manifest["res"]),
+                                       ("sensitivity renders", first.manifest["sensitivity"],
+                                        part.manifest["sensitivity"])):
+                if mine != theirs:
+                    raise VtoError(f"{part.root} and {first.root} differ in their {what}: one training set needs one")
+        self.root = " + ".join(str(part.root) for part in self.parts)  # for messages
+        self.manifest, self.spec = first.manifest, first.spec
+        self.has_sources = all(part.has_sources for part in self.parts)
+        self.starts = np.cumsum([0] + [len(part) for part in self.parts])
+
+    def __len__(self) -> int:
+        return int(self.starts[-1])
+
+    def __getitem__(self, position: int) -> Sample:
+        part = int(np.searchsorted(self.starts, position, side="right")) - 1
+        return self.parts[part][position - int(self.starts[part])]
+
+
+def open_datasets(data: str | os.PathLike | list) -> DatasetReader | DatasetUnion:
+    """A reader of one dataset folder, or of several as one."""
+    if isinstance(data, (str, os.PathLike)):
+        return DatasetReader(data)
+    return DatasetReader(data[0]) if len(data) == 1 else DatasetUnion(data)

@@ -9,13 +9,13 @@ pytestmark = [pytest.mark.torch, pytest.mark.blender]
 torch = pytest.importorskip("torch")
 pytest.importorskip("bpy")
 
-from training.config import EncoderConfig, ImitatorConfig, resolve_config  # noqa: E402
+from training.config import EncoderConfig, ImitatorConfig, data_record, resolve_config  # noqa: E402
 from training.export import export_encoder  # noqa: E402
 from training.run import RunFolder  # noqa: E402
 from training.train_encoder import train_encoder  # noqa: E402
 from training.train_imitator import train_imitator  # noqa: E402
 from vto_core import cli  # noqa: E402
-from vto_core.dataset import DatasetReader  # noqa: E402
+from vto_core.dataset import DatasetReader, DatasetUnion  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.inference import EncoderSession  # noqa: E402
 from vto_core.specs import get_spec  # noqa: E402
@@ -102,6 +102,21 @@ def test_encoder_beats_predicting_the_mean(colour_dataset, tmp_path):
     baseline = float(((held_out_g - train_g.mean(0)) ** 2).mean())
     learned = run.read_log()[-1]["val_param_mse"]
     assert learned < 0.7 * baseline, f"encoder {learned:.4f} vs mean baseline {baseline:.4f}"
+
+
+def test_several_datasets_train_as_one_in_the_order_given(lipstick_dataset, colour_dataset, tmp_path):
+    one = DatasetReader(lipstick_dataset)
+    union = DatasetUnion([lipstick_dataset, lipstick_dataset])
+    assert len(union) == 2 * len(one) == 48
+    assert union[23].index == 23 and union[24].index == 0
+    np.testing.assert_array_equal(union[30].unit, one[6].unit)
+    config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=2", "loss=graphics"])
+    run = train_encoder([str(lipstick_dataset)] * 2, None, str(tmp_path / "two"), config)
+    assert json.loads((run.path / "config.json").read_text())["data"] == [str(lipstick_dataset)] * 2
+    assert data_record([str(lipstick_dataset)]) == data_record(lipstick_dataset) == str(lipstick_dataset)
+    with pytest.raises(VtoError, match="differ in their spec: one training set needs one"):
+        train_encoder([str(lipstick_dataset), str(colour_dataset)], None, str(tmp_path / "mixed"), config)
+    assert not (tmp_path / "mixed").exists()
 
 
 def test_encoder_with_rendering_loss_trains_through_the_imitator(lipstick_dataset, imitator_run, tmp_path):

@@ -33,8 +33,8 @@ def test_cli_spec_and_sample_output(capsys):
     spec = json.loads(capsys.readouterr().out)
     assert spec["vector_order"] == ["hue", "shine"]
     assert cli.run(["sample", "hair", "--n", "2", "--seed", "4", "--params", "hue"]) == 0
-    lines = [json.loads(l) for l in capsys.readouterr().out.splitlines()]
-    assert [l["index"] for l in lines] == [0, 1] and 0 <= lines[0]["params"]["hue"] < 1
+    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [line["index"] for line in lines] == [0, 1] and 0 <= lines[0]["params"]["hue"] < 1
     assert cli.run(["sample", "hair", "--n", "0"]) == 2
 
 
