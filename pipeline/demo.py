@@ -138,10 +138,12 @@ def run_demo(renderer: str, size_name: str, out: Path) -> Path:
 
     args_i = dataset_args(data_i, size.n_imitator, IMITATOR_DATA_SEED, True)
     args_e = dataset_args(data_e, size.n_encoder, ENCODER_DATA_SEED, False)
+    # Every stamp holds the spec too: a spec changed in the code (an encoding, a range) remakes everything.
+    made_for = spec.to_dict()
     stages.run("data_imitator", f"imitator data: {size.n_imitator} looks with sensitivity renders, {size.res} px, "
-               f"{size.samples} spp", {"argv": args_i}, [data_i], dataset(args_i))
+               f"{size.samples} spp", {"argv": args_i, "spec": made_for}, [data_i], dataset(args_i))
     stages.run("data_encoder", f"encoder data: {size.n_encoder} looks, {size.res} px, {size.samples} spp",
-               {"argv": args_e}, [data_e], dataset(args_e))
+               {"argv": args_e, "spec": made_for}, [data_e], dataset(args_e))
 
     # 3. Imitator: the paper's loss with the sensitivity term.
     imitator_set = [*COMMON, *size.imitator, "use_sensitivity=true"]
@@ -152,8 +154,9 @@ def run_demo(renderer: str, size_name: str, out: Path) -> Path:
 
         train_imitator(str(data_i), str(run_i), resolve_config(ImitatorConfig, None, imitator_set))
 
-    stages.run("imitator", "imitator (imitation + sensitivity + adversarial)",
-               {"data": args_i, "set": imitator_set}, [run_i], train_imitator_stage)
+    imitator_made = {"data": args_i, "set": imitator_set, "spec": made_for}
+    stages.run("imitator", "imitator (imitation + sensitivity + adversarial)", imitator_made, [run_i],
+               train_imitator_stage)
 
     # 4. Encoder: graphics loss + rendering loss through the frozen imitator.
     encoder_set = [*COMMON, *size.encoder, "loss=both"]
@@ -164,8 +167,8 @@ def run_demo(renderer: str, size_name: str, out: Path) -> Path:
 
         train_encoder(str(data_e), str(run_i), str(run_e), resolve_config(EncoderConfig, None, encoder_set))
 
-    stages.run("encoder", "encoder (graphics + rendering loss through the imitator)",
-               {"data": args_e, "imitator": {"data": args_i, "set": imitator_set}, "set": encoder_set}, [run_e],
+    trained = {"data": args_e, "imitator": imitator_made, "set": encoder_set, "spec": made_for}
+    stages.run("encoder", "encoder (graphics + rendering loss through the imitator)", trained, [run_e],
                train_encoder_stage)
 
     # 5. ONNX export (checked against torch).
@@ -174,7 +177,6 @@ def run_demo(renderer: str, size_name: str, out: Path) -> Path:
 
         export_encoder(str(run_e), str(model))
 
-    trained = {"data": args_e, "imitator": {"data": args_i, "set": imitator_set}, "set": encoder_set}
     stages.run("export", "ONNX export", trained, [model], export_stage)
 
     # 6. Transfer evaluation on fresh looks, with the shipped model where it is comparable.

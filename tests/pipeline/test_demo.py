@@ -112,3 +112,25 @@ def test_stages_skip_same_settings_redo_changed_ones_and_resume_unfinished(tmp_p
     stages.run("s", "stage", {"n": 2}, [output], work)
     assert calls == [False, False, True]  # unfinished with the same settings: resumed on what is there
     assert stages.timings[0]["reused"] is False and json.loads(stamp.read_text())["finished"]
+
+
+def test_every_stage_is_stamped_with_the_spec_so_a_changed_spec_remakes_it(monkeypatch, tmp_path):
+    import pipeline.demo_report
+    from pipeline import demo
+    from vto_core.specs import get_spec
+
+    class Stop(Exception):
+        pass
+
+    def stop(*args, **kwargs):
+        raise Stop
+
+    settings = {}
+    monkeypatch.setattr(demo.Stages, "run", lambda self, name, title, made, outputs, work: settings.update({name: made}))
+    monkeypatch.setattr(pipeline.demo_report, "write_report", stop)
+    with pytest.raises(Stop):
+        demo.run_demo("lipstick", "smoke", tmp_path)
+    spec = get_spec("lipstick", demo.SIZES["smoke"].params("lipstick")).to_dict()
+    assert list(settings) == ["data_imitator", "data_encoder", "imitator", "encoder", "export", "eval"]
+    assert all(made["spec"] == spec for name, made in settings.items() if name != "eval")
+    assert settings["eval"]["trained"]["spec"] == spec
