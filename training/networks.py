@@ -7,6 +7,8 @@ from torch import nn
 
 from vto_core.errors import VtoError
 
+from .losses import parameter_difference
+
 
 def _check_count(owner, name, value, minimum):
     """Return value as a plain int, raising VtoError unless it is an integer (not bool) >= minimum."""
@@ -214,14 +216,12 @@ class MirrorAveraged(nn.Module):
 
     def __init__(self, encoder, wraps):
         super().__init__()
-        self.encoder = encoder
-        self.register_buffer("wraps", torch.as_tensor(wraps, dtype=torch.bool))
+        self.encoder, self.wraps = encoder, [bool(w) for w in wraps]
 
     def forward(self, img):
         """img: (B, C, H, W) in [0,1] -> (B, n_params), the mean of the two readings."""
         direct, mirrored = self.encoder(img), self.encoder(torch.flip(img, dims=[3]))
-        half_way_round = 0.5 * (torch.remainder(mirrored - direct + 0.5, 1.0) - 0.5)
-        return torch.where(self.wraps, direct + half_way_round, 0.5 * (direct + mirrored))
+        return direct + 0.5 * parameter_difference(direct, mirrored, self.wraps)  # half-way, round the circle too
 
 
 _NETWORK_CLASSES = {"imitator": Imitator, "critic": Critic, "encoder": Encoder}
