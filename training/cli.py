@@ -48,11 +48,12 @@ def cmd_train(argv: list[str]) -> int:
 
 
 def cmd_export(argv: list[str]) -> int:
-    """vto export --encoder RUN --out encoder.onnx."""
+    """vto export --encoder RUN [RUN ...] --out encoder.onnx."""
     from .export import export_encoder
 
     parser = ArgumentParser(prog="vto export", description="export an encoder run to ONNX (checked against torch)")
-    parser.add_argument("--encoder", required=True, help="encoder run folder")
+    parser.add_argument("--encoder", required=True, nargs="+", metavar="RUN",
+                        help="encoder run folder; several runs of one spec and size are averaged into one file")
     parser.add_argument("--out", required=True, help="the .onnx file to write")
     parser.add_argument("--opset", type=int, default=18)
     parser.add_argument("--single-view", action="store_true",

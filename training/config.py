@@ -70,6 +70,8 @@ class EncoderConfig(CommonConfig):
     batch_norm: bool = False
     lambda_rendering: float = 20.0
     loss: str = "both"  # ablation: graphics | rendering | both
+    graphics_error: str = "squared"  # squared (the paper) | absolute: the graphics loss's per-parameter error
+    parameter_weights: str = ""  # 'name=weight,...' on the graphics loss (e.g. red=4,green=4,blue=4); others weigh 1
     augment: bool = False  # mirrored and shifted views of each render (training/data.augment)
     photo_views: bool = False  # what photos show and renders do not: tilt, zoom, blur, sensor noise (data.photo_views)
     mouth_views: bool = False  # lips: open mouths with teeth and skin texture (data.open_mouths, data.skin_texture)
@@ -83,7 +85,7 @@ PRESETS = {
 }
 PRESET_CLASSES = {"cpu": ("EncoderConfig",)}  # presets measured for some networks only
 _CHOICES = {"perceptual": ("auto", "vgg", "ssim_l1"), "schedule": ("constant", "cosine"),
-            "loss": ("graphics", "rendering", "both")}
+            "loss": ("graphics", "rendering", "both"), "graphics_error": ("squared", "absolute")}
 
 
 def _convert(kind, text: str):

@@ -16,7 +16,7 @@ from vto_core.errors import VtoError
 from vto_core.inference import INPUT_NAME, METADATA_PREFIX, OUTPUT_NAME, EncoderSession
 from vto_core.specs import RendererSpec
 
-from .networks import MirrorAveraged, build
+from .networks import Averaged, MirrorAveraged, build
 from .run import RunFolder
 
 PARITY_TOLERANCE = 1e-4
@@ -27,10 +27,10 @@ def trained_on_mirrors(checkpoint: dict) -> bool:
     return bool(checkpoint.get("config", {}).get("augment", False))
 
 
-def encoder_metadata(checkpoint: dict, mirror_averaged: bool) -> dict[str, str]:
+def encoder_metadata(checkpoints: list[dict], mirror_averaged: bool) -> dict[str, str]:
     """What the ONNX file says about itself: spec, renderer, input size and format, mirror averaging, versions."""
-    height, width = checkpoint["image_size"]
-    spec = checkpoint["spec"]
+    height, width = checkpoints[0]["image_size"]
+    spec = checkpoints[0]["spec"]
     return {
         f"{METADATA_PREFIX}kind": "encoder",
         f"{METADATA_PREFIX}spec": json.dumps(spec, sort_keys=True),
@@ -39,28 +39,48 @@ def encoder_metadata(checkpoint: dict, mirror_averaged: bool) -> dict[str, str]:
         f"{METADATA_PREFIX}input_normalisation": "NCHW float32, display sRGB values in [0, 1]",
         f"{METADATA_PREFIX}output": "normalised parameters in [0, 1], in the spec's vector order",
         f"{METADATA_PREFIX}mirror_averaged": str(mirror_averaged).lower(),
+        f"{METADATA_PREFIX}averaged_runs": str(len(checkpoints)),
         f"{METADATA_PREFIX}version": vto_core.__version__,
-        f"{METADATA_PREFIX}trained_steps": str(checkpoint["step"]),
+        f"{METADATA_PREFIX}trained_steps": ",".join(str(c["step"]) for c in checkpoints),
     }
 
 
-def export_encoder(run_path: str, out_path: str, opset: int = 18, mirror: bool = True) -> dict:
-    """RUN/checkpoint.pt -> out_path (.onnx); onnx.checker and onnxruntime-vs-torch parity must pass. With `mirror`,
-    a run trained on mirrored views is exported mirror-averaged (networks.MirrorAveraged): twice the encoder's ~1 ms
-    for a lower error (blender_addon/models/lipstick_encoder.md)."""
+def load_encoder_runs(run_paths: list[str]) -> list[dict]:
+    """The checkpoints of encoder runs of one spec and input size (VtoError naming the first that differs)."""
+    checkpoints = []
+    for run_path in run_paths:
+        checkpoint = RunFolder(run_path).load_checkpoint(required=True)
+        if checkpoint.get("kind") != "encoder":
+            raise VtoError(f"{run_path} is a {checkpoint.get('kind')} run; export takes an encoder run")
+        first = checkpoints[0] if checkpoints else checkpoint
+        for key, what in (("spec", "parameter spec"), ("image_size", "input size")):
+            if checkpoint[key] != first[key]:
+                raise VtoError(f"{run_path} has another {what} than {run_paths[0]}: runs averaged into one file "
+                               f"need one")
+        checkpoints.append(checkpoint)
+    return checkpoints
+
+
+def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, mirror: bool = True) -> dict:
+    """RUN/checkpoint.pt (or several runs, averaged: networks.Averaged) -> out_path (.onnx); onnx.checker and
+    onnxruntime-vs-torch parity must pass. With `mirror`, runs all trained on mirrored views are exported
+    mirror-averaged (networks.MirrorAveraged): twice the encoder's ~1 ms for a lower error
+    (blender_addon/models/lipstick_encoder.md)."""
     import onnx
 
-    checkpoint = RunFolder(run_path).load_checkpoint(required=True)
-    if checkpoint.get("kind") != "encoder":
-        raise VtoError(f"{run_path} is a {checkpoint.get('kind')} run; export takes an encoder run")
-    encoder = build("encoder", checkpoint["model_args"])
-    encoder.load_state_dict(checkpoint["model"])
-    mirror_averaged = mirror and trained_on_mirrors(checkpoint)
-    if mirror_averaged:
-        spec = RendererSpec.from_dict(checkpoint["spec"])
-        encoder = MirrorAveraged(encoder, [p.wraps for p in spec.modelled_params])
+    run_paths = [run_paths] if isinstance(run_paths, (str, os.PathLike)) else list(run_paths)
+    checkpoints = load_encoder_runs(run_paths)
+    spec = RendererSpec.from_dict(checkpoints[0]["spec"])
+    wraps = [p.wraps for p in spec.modelled_params]
+    mirror_averaged = mirror and all(trained_on_mirrors(c) for c in checkpoints)
+    encoders = []
+    for checkpoint in checkpoints:
+        encoder = build("encoder", checkpoint["model_args"])
+        encoder.load_state_dict(checkpoint["model"])
+        encoders.append(MirrorAveraged(encoder, wraps) if mirror_averaged else encoder)
+    encoder = encoders[0] if len(encoders) == 1 else Averaged(encoders, wraps)
     encoder.eval()
-    height, width = checkpoint["image_size"]
+    height, width = checkpoints[0]["image_size"]
     out = Path(out_path)
     if not out.parent.is_dir():
         raise VtoError(f"cannot write {out}: folder {out.parent} does not exist")
@@ -72,7 +92,7 @@ def export_encoder(run_path: str, out_path: str, opset: int = 18, mirror: bool =
                               opset_version=opset, dynamo=True, external_data=False,
                               dynamic_shapes=({0: torch.export.Dim("batch", min=1, max=4096)},))
         model = onnx.load(str(tmp))
-        for key, value in encoder_metadata(checkpoint, mirror_averaged).items():
+        for key, value in encoder_metadata(checkpoints, mirror_averaged).items():
             entry = model.metadata_props.add()
             entry.key, entry.value = key, value
         onnx.checker.check_model(model, full_check=True)
@@ -83,7 +103,7 @@ def export_encoder(run_path: str, out_path: str, opset: int = 18, mirror: bool =
         if tmp.exists():
             tmp.unlink()
     return {"out": str(out), "max_abs_diff": parity, "input_size": [height, width], "mirror_averaged": mirror_averaged,
-            "params": checkpoint["spec"]["modelled"]}
+            "averaged_runs": len(checkpoints), "params": checkpoints[0]["spec"]["modelled"]}
 
 
 def _parity(encoder: torch.nn.Module, path: str, height: int, width: int) -> float:

@@ -1,5 +1,6 @@
 """Training losses: rendering sensitivity, graphics, WGAN-GP, SSIM and perceptual distance."""
 
+import math
 import os
 import warnings
 from pathlib import Path
@@ -68,13 +69,41 @@ def parameter_difference(g_true, g_pred, wraps=None):
     return difference
 
 
-def graphics_loss(g_true, g_pred, wraps=None):
-    """g_true, g_pred: (B, m) -> scalar mean over B of the summed squared parameter error (wrapping dims circular)."""
+def graphics_loss(g_true, g_pred, wraps=None, error="squared", weights=None):
+    """g_true, g_pred: (B, m) -> scalar mean over B of the weighted sum of per-parameter errors.
+
+    error: "squared" (the paper) or "absolute" (whose minimiser is the median of what a render allows, not the mean);
+    weights: (m,) or None for all 1; wrapping dims are on the circle.
+    """
     if g_true.ndim != 2 or g_true.shape != g_pred.shape:
         raise VtoError(
             f"graphics_loss: expected two (B, m) tensors of one shape, got {_shape(g_true)} and {_shape(g_pred)}"
         )
-    return parameter_difference(g_true, g_pred, wraps).square().sum(dim=1).mean()
+    if error not in ("squared", "absolute"):
+        raise VtoError(f"graphics_loss: error must be squared or absolute, got '{error}'")
+    difference = parameter_difference(g_true, g_pred, wraps)
+    per_parameter = difference.square() if error == "squared" else difference.abs()
+    if weights is not None:
+        per_parameter = per_parameter * torch.as_tensor(weights, dtype=per_parameter.dtype, device=per_parameter.device)
+    return per_parameter.sum(dim=1).mean()
+
+
+def parameter_weights(setting: str, names: list[str]) -> list[float] | None:
+    """'name=weight,...' -> a weight per name in `names` (1 where not named), or None for an empty setting."""
+    if not setting.strip():
+        return None
+    weights = dict.fromkeys(names, 1.0)
+    for item in setting.split(","):
+        name, sep, text = item.strip().partition("=")
+        try:
+            value = float(text) if sep else math.nan
+        except ValueError:
+            value = math.nan
+        if name not in weights or not 0.0 <= value < math.inf:
+            raise VtoError(f"parameter_weights: '{item.strip()}' is not name=weight with a weight of at least 0 for "
+                           f"one of {', '.join(names)}")
+        weights[name] = value
+    return [weights[name] for name in names]
 
 
 def weighted_total(terms):

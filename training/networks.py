@@ -224,6 +224,21 @@ class MirrorAveraged(nn.Module):
         return direct + 0.5 * parameter_difference(direct, mirrored, self.wraps)  # half-way, round the circle too
 
 
+class Averaged(nn.Module):
+    """Several encoders of one spec read on one image, their estimates averaged (wrapping outputs on the circle, round
+    the first's): runs trained apart err apart, so their mean errs less. img (B, C, H, W) -> (B, n_params)."""
+
+    def __init__(self, encoders, wraps):
+        super().__init__()
+        self.encoders, self.wraps = nn.ModuleList(encoders), [bool(w) for w in wraps]
+
+    def forward(self, img):
+        """img: (B, C, H, W) in [0,1] -> (B, n_params), the mean of the encoders' readings."""
+        readings = [encoder(img) for encoder in self.encoders]
+        first = readings[0]
+        return first + sum(parameter_difference(first, other, self.wraps) for other in readings[1:]) / len(readings)
+
+
 _NETWORK_CLASSES = {"imitator": Imitator, "critic": Critic, "encoder": Encoder}
 
 

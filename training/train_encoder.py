@@ -13,7 +13,7 @@ from vto_core.specs import RendererSpec
 from .config import EncoderConfig, config_dict, data_record, with_epochs
 from .data import RenderDataset, encoder_views, make_loader, per_process_batch, split, training_batches
 from .distributed import Processes, processes
-from .losses import PerceptualDistance, graphics_loss, parameter_difference, weighted_total
+from .losses import PerceptualDistance, graphics_loss, parameter_difference, parameter_weights, weighted_total
 from .networks import Encoder, build
 from .run import RunFolder, optimise
 
@@ -41,7 +41,8 @@ def load_frozen_imitator(run_path: str, spec: RendererSpec, device: str,
     return imitator
 
 
-def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: EncoderConfig, wraps=None):
+def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: EncoderConfig, wraps=None,
+                   weights=None):
     """g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g): (log dict, total).
 
     The log holds each term unweighted and `<term>_weighted` (as it enters the total), and the total.
@@ -51,7 +52,7 @@ def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: 
     g_hat = encoder(render)
     terms = {}  # name -> (unweighted value, weight)
     if config.loss in ("graphics", "both"):
-        terms["graphics"] = (graphics_loss(g, g_hat, wraps), 1.0)
+        terms["graphics"] = (graphics_loss(g, g_hat, wraps, config.graphics_error, weights), 1.0)
     if config.loss in ("rendering", "both"):
         terms["rendering"] = (perceptual(imitator(batch["source"].to(device), g_hat), render), config.lambda_rendering)
     return weighted_total(terms)
@@ -92,6 +93,7 @@ def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], 
     res = reader.manifest["res"]
     image_size = [res, res] if isinstance(res, int) else list(res[::-1])  # (H, W); a user scene records (W, H)
     wraps = [p.wraps for p in reader.spec.modelled_params]
+    weights = parameter_weights(config.parameter_weights, [p.name for p in reader.spec.modelled_params])
     imitator = load_frozen_imitator(imitator_run, reader.spec, device, image_size) if use_rendering else None
     train_positions, val_positions = split(reader, config.val_fraction)
     config = with_epochs(config, len(train_positions))
@@ -142,7 +144,7 @@ def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], 
     model = procs.wrap(encoder)
     optimise(run, config, step, batches,
              lambda batch: encoder_losses(model, imitator, perceptual, encoder_views(batch, config),
-                                          runtime, wraps),
+                                          runtime, wraps, weights),
              optimiser, validate, save, procs)
 
     # 4. Loss plot.

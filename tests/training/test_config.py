@@ -58,6 +58,8 @@ def test_encoder_only_settings_are_unknown_to_the_imitator_and_back():
         resolve_config(EncoderConfig, None, ["use_gan=false"])
     with pytest.raises(VtoError, match="loss must be one of graphics, rendering, both"):
         resolve_config(EncoderConfig, None, ["loss=pixels"])
+    with pytest.raises(VtoError, match="graphics_error must be one of squared, absolute, got 'huber'"):
+        resolve_config(EncoderConfig, None, ["graphics_error=huber"])
 
 
 @pytest.mark.parametrize("content, message", [

@@ -14,6 +14,7 @@ from training.losses import (  # noqa: E402
     generator_adversarial_loss,
     gradient_penalty,
     graphics_loss,
+    parameter_weights,
     parameter_difference,
     sensitivity_loss,
     ssim,
@@ -128,9 +129,35 @@ def test_graphics_loss_hand_computed():
     assert graphics_loss(g_true, g_pred).item() == pytest.approx(1.125)
 
 
-def test_graphics_loss_refuses_mismatched_shapes():
+def test_graphics_loss_absolute_and_weighted_hand_computed():
+    g_true = torch.tensor([[0.0, 1.0], [0.5, 0.5]])
+    g_pred = torch.tensor([[1.0, 1.0], [0.0, 1.5]])
+    # Absolute: sample 0: 1 + 0; sample 1: 0.5 + 1; mean 1.25.
+    assert graphics_loss(g_true, g_pred, error="absolute").item() == pytest.approx(1.25)
+    # Squared, weights (2, 0.5): sample 0: 2 x 1; sample 1: 2 x 0.25 + 0.5 x 1; mean 1.5.
+    assert graphics_loss(g_true, g_pred, weights=[2.0, 0.5]).item() == pytest.approx(1.5)
+    # A wrapping dimension stays on the circle: 0.95 -> 0.05 is 0.1 away.
+    assert graphics_loss(torch.tensor([[0.95]]), torch.tensor([[0.05]]), [True], "absolute").item() == (
+        pytest.approx(0.1))
+
+
+def test_graphics_loss_refuses_mismatched_shapes_and_unknown_errors():
     with pytest.raises(VtoError, match="graphics_loss"):
         graphics_loss(torch.zeros(2, 3), torch.zeros(2, 4))
+    with pytest.raises(VtoError, match="error must be squared or absolute, got 'cubed'"):
+        graphics_loss(torch.zeros(2, 3), torch.zeros(2, 3), error="cubed")
+
+
+def test_parameter_weights_name_some_parameters_and_leave_the_rest_at_one():
+    names = ["opacity", "red", "green", "blue"]
+    assert parameter_weights("", names) is None
+    assert parameter_weights("red=4, blue=0.5", names) == [1.0, 4.0, 1.0, 0.5]
+
+
+@pytest.mark.parametrize("setting", ["red", "rouge=2", "red=-1", "red=x", "red=inf", "red=4,"])
+def test_parameter_weights_refuse_what_is_not_a_weight_for_a_parameter(setting):
+    with pytest.raises(VtoError, match="is not name=weight with a weight of at least 0 for one of opacity, red"):
+        parameter_weights(setting, ["opacity", "red"])
 
 
 # --- WGAN-GP ------------------------------------------------------------------------------------

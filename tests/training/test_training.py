@@ -119,6 +119,19 @@ def test_several_datasets_train_as_one_in_the_order_given(lipstick_dataset, colo
     assert not (tmp_path / "mixed").exists()
 
 
+def test_an_absolute_weighted_graphics_loss_trains_and_a_bad_weight_leaves_no_run_folder(lipstick_dataset, tmp_path):
+    settings = TINY_ENCODER + ["steps=3", "loss=graphics", "graphics_error=absolute"]
+    config = resolve_config(EncoderConfig, None, settings + ["parameter_weights=red=4,green=4,blue=4"])
+    run = train_encoder(str(lipstick_dataset), None, str(tmp_path / "weighted"), config)
+    assert run.read_log()[-1]["step"] == 3 and np.isfinite(run.read_log()[-1]["graphics"])
+    recorded = json.loads((run.path / "config.json").read_text())
+    assert (recorded["graphics_error"], recorded["parameter_weights"]) == ("absolute", "red=4,green=4,blue=4")
+    config = resolve_config(EncoderConfig, None, settings + ["parameter_weights=rouge=4"])
+    with pytest.raises(VtoError, match="'rouge=4' is not name=weight"):
+        train_encoder(str(lipstick_dataset), None, str(tmp_path / "bad"), config)
+    assert not (tmp_path / "bad").exists()
+
+
 def test_encoder_with_rendering_loss_trains_through_the_imitator(lipstick_dataset, imitator_run, tmp_path):
     config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=10"])
     last = train_encoder(str(lipstick_dataset), str(imitator_run), str(tmp_path / "both"), config).read_log()[-1]
@@ -157,6 +170,27 @@ def test_a_batch_norm_encoder_trains_and_exports_mirror_averaged_with_its_runnin
     single = export_encoder(str(run.path), str(tmp_path / "single.onnx"), mirror=False)  # vto export --single-view
     assert single["mirror_averaged"] is False
     assert np.abs(EncoderSession(tmp_path / "single.onnx").predict_unit_nchw(images) - direct).max() <= 1e-4
+
+
+def test_runs_of_one_spec_export_averaged_into_one_file_and_others_are_refused(lipstick_dataset, colour_dataset,
+                                                                             tmp_path):
+    runs = []
+    for seed in (0, 1):
+        config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=5", "loss=graphics", f"seed={seed}"])
+        runs.append(str(train_encoder(str(lipstick_dataset), None, str(tmp_path / f"run{seed}"), config).path))
+        export_encoder(runs[-1], str(tmp_path / f"run{seed}.onnx"))
+    result = export_encoder(runs, str(tmp_path / "both.onnx"))
+    assert result["averaged_runs"] == 2 and result["max_abs_diff"] <= 1e-4
+    images = np.random.default_rng(2).random((4, 3, 16, 16), dtype=np.float32)
+    one, other = (EncoderSession(tmp_path / f"run{seed}.onnx").predict_unit_nchw(images) for seed in (0, 1))
+    assert np.abs(one - other).max() > 1e-3  # two seeds: two readings
+    np.testing.assert_allclose(EncoderSession(tmp_path / "both.onnx").predict_unit_nchw(images), (one + other) / 2,
+                               atol=1e-5)
+    config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=2", "loss=graphics"])
+    colour = str(train_encoder(str(colour_dataset), None, str(tmp_path / "colour"), config).path)
+    with pytest.raises(VtoError, match="has another parameter spec than .*run0: runs averaged into one file need one"):
+        export_encoder([runs[0], colour], str(tmp_path / "mixed.onnx"))
+    assert not list(tmp_path.glob("*mixed.onnx"))
 
 
 def test_export_matches_torch_and_refuses_another_spec(lipstick_dataset, tmp_path):
