@@ -38,6 +38,8 @@ GLOSS_HIGH = 2.0  # lipstick "high gloss": above the glossy presets' typical amo
 DARK_LIPSTICK = 60.0  # max(R, G, B) below this (of 255) is a very dark shade
 DARK_HAIR = 0.05  # mean luma of the recoloured swatch below this: the presets Dark Brown (0.047) and darker
 EXTREME = 0.1  # a unit value below 0.1 or above 0.9 is at its range's extreme
+COLOUR = ("red", "green", "blue")  # lipstick: the makeup colour's parameters
+OPAQUE = 0.5  # lipstick: looks whose true opacity is at least this show their colour (issue 17's colour goal)
 
 
 @dataclass
@@ -328,8 +330,23 @@ def summarise(spec: RendererSpec, rows: list[dict], methods: list[str]) -> dict:
             "param_error": {n: float(np.mean([r["param_error"][n] for r in results])) for n in spec.modelled},
             "raw_error_median": {n: float(np.median([r["raw_error"][n] for r in results])) for n in spec.modelled},
             "psnr_by_bucket": {k: [float(np.mean(v)), len(v)] for k, v in sorted(per_bucket.items())},
+            "colour_error_median": colour_errors(spec, rows, method),
         }
     return summary
+
+
+def colour_errors(spec: RendererSpec, rows: list[dict], method: str) -> dict | None:
+    """The median |error| of a method's makeup colour in 8-bit steps, red, green and blue pooled, over all looks and
+    over those whose true opacity is >= OPAQUE (where the colour shows); None for a spec that does not model all four."""
+    if not {"opacity", *COLOUR} <= set(spec.modelled):
+        return None
+
+    def pooled(chosen):
+        errors = [row["methods"][method]["raw_error"][c] for row in chosen for c in COLOUR]
+        return float(np.median(errors)) if errors else None
+
+    opaque = [row for row in rows if row["truth"]["opacity"] >= OPAQUE]
+    return {"all": pooled(rows), "opaque": pooled(opaque), "opaque_looks": len(opaque)}
 
 
 def _pm(pair: list[float] | None, digits: int) -> str:
@@ -357,6 +374,18 @@ def markdown(spec: RendererSpec, summary: dict, settings: EvalSettings, model: s
     lines += ["", "Median absolute parameter error in each parameter's own units:", "", header, rule]
     lines += [f"| {n} ({units[n]}) | " + " | ".join(f"{summary[m]['raw_error_median'][n]:.3g}" for m in methods)
               + " |" for n in spec.modelled]
+    colour = {m: summary[m]["colour_error_median"] for m in methods}
+    if all(colour.values()):
+        looks = colour[methods[0]]["opaque_looks"]
+
+        def cell(value):
+            return "-" if value is None else f"{value:.1f}"
+
+        lines += ["", "Median colour error, 8-bit sRGB steps, red, green and blue pooled:", "",
+                  "| looks | " + " | ".join(methods) + " |", rule,
+                  f"| all ({settings.n}) | " + " | ".join(cell(colour[m]["all"]) for m in methods) + " |",
+                  f"| opacity >= {OPAQUE} ({looks}) | " + " | ".join(cell(colour[m]["opaque"]) for m in methods)
+                  + " |"]
     seen = sorted({b for m in methods for b in summary[m]["psnr_by_bucket"]})
     lines += ["", "PSNR by bucket (dB mean, looks): dark shades, high gloss, each range's extremes (unit < 0.1 "
                   "'low', > 0.9 'high'):", "", "| bucket | " + " | ".join(methods) + " |", rule]

@@ -14,7 +14,7 @@ pytest.importorskip("torch")
 
 from pipeline.cli import cmd_eval  # noqa: E402
 from training.config import EncoderConfig, ImitatorConfig, resolve_config  # noqa: E402
-from pipeline.evaluate import buckets, is_dark, parameter_errors, raw_errors  # noqa: E402
+from pipeline.evaluate import buckets, colour_errors, is_dark, parameter_errors, raw_errors  # noqa: E402
 from training.export import export_encoder  # noqa: E402
 from training.train_encoder import train_encoder  # noqa: E402
 from training.train_imitator import train_imitator  # noqa: E402
@@ -109,6 +109,11 @@ def test_tables_plots_and_contact_sheet_are_written(evaluated):
     for method in METHODS:
         assert f"| {method} |" in text
     assert "PSNR by bucket" in text and "| opacity |" in text and "Median absolute parameter error" in text
+    summary = json.loads((out / "results.json").read_text())["summary"]
+    colour = summary["encoder"]["colour_error_median"]
+    assert colour["all"] == pytest.approx(colour_errors(SPEC, json.loads((out / "results.json").read_text())["looks"],
+                                                        "encoder")["all"])
+    assert f"| all ({N}) | " + " | ".join(f"{summary[m]['colour_error_median']['all']:.1f}" for m in summary) in text
     sheet, _ = read_image(out / "sheet.png")
     assert sheet.shape == (N * RES, (2 + len(METHODS)) * RES, 3)  # reference A | truth B | each method on B
     assert np.isfinite(sheet).all() and sheet.std() > 0.01
@@ -139,6 +144,19 @@ def test_bad_input_is_one_line_and_writes_nothing(argv, message, models, tmp_pat
         cmd_eval([x for pair in args.items() for x in pair])
     assert "\n" not in str(caught.value)
     assert not (tmp_path / "out").exists() and not (tmp_path / "no-run").exists()
+
+
+def test_colour_errors_pool_the_channels_over_all_and_over_opaque_looks():
+    def look(opacity, errors):
+        return {"truth": {"opacity": opacity}, "methods": {"m": {"raw_error": dict(zip(("red", "green", "blue"),
+                                                                                           errors))}}}
+
+    rows = [look(0.9, (1, 2, 3)), look(0.5, (4, 5, 6)), look(0.2, (30, 40, 50))]
+    # all: median of 1..6, 30, 40, 50 = 5; opacity >= 0.5: median of 1..6 = 3.5
+    assert colour_errors(SPEC, rows, "m") == {"all": 5.0, "opaque": 3.5, "opaque_looks": 2}
+    assert colour_errors(SPEC, rows[2:], "m") == {"all": 40.0, "opaque": None, "opaque_looks": 0}
+    assert colour_errors(get_spec("lipstick", "opacity,red,green"), rows, "m") is None
+    assert colour_errors(get_spec("hair"), rows, "m") is None
 
 
 def test_hue_errors_wrap_and_buckets_name_dark_glossy_and_extreme_looks():
