@@ -140,7 +140,7 @@ def estimate(session: EncoderSession, spec: RendererSpec, reference: np.ndarray)
 
 def iter_refine_hair(spec: RendererSpec, reference: np.ndarray, mask: np.ndarray, start: dict[str, float],
                      budget: int, res: int, seed: int = 0):
-    """Render search (CMA-ES through the hair stage) on the photo itself, its mask as the hair: `budget` renders.
+    """Render search (the fit through the hair stage) on the photo itself, its mask as the hair: `budget` renders.
 
     Intensity and blend are held at full effect while searching and keep the encoder's values (hair.OWN_SOURCE_HELD).
 

@@ -1,8 +1,9 @@
 """`vto match`: a renderer's parameters from a reference image; the encoder's estimate, optionally refined.
 
 Layering: this module needs onnxruntime (the encoder) and, for refinement, bpy (the renderer); it never imports torch
-or `training`, because the extension ships without them. `--refine render:B` (CMA-ES through the real renderer,
-blender_addon.refine) runs anywhere bpy does, inside Blender too. `--refine imitator:K` is the pipeline layer's
+or `training`, because the extension ships without them. `--refine render:B` (a Gauss-Newton fit through the real
+renderer, blender_addon.refine; `cma:B` the derivative-free CMA-ES search) runs anywhere bpy does, inside Blender
+too. `--refine imitator:K` is the pipeline layer's
 (pipeline.match passes its refinement in as `imitator_refine`); without it, as inside Blender, it is one line.
 
 Refinement compares renders of the reference's own source with the reference, so it needs that source: a seed of
@@ -35,13 +36,13 @@ NO_IMITATOR = ("--refine imitator:K needs torch and the training package, which 
 
 
 def parse_refine(text: str) -> tuple[str, int]:
-    """'none' | 'imitator:K' | 'render:B' -> (kind, K or B)."""
+    """'none' | 'imitator:K' | 'render:B' | 'cma:B' -> (kind, K or B)."""
     kind, _, amount = text.partition(":")
     if kind == "none" and not amount:
         return "none", 0
-    if kind in ("imitator", "render") and amount.isdigit() and int(amount) >= 1:
+    if kind in ("imitator", "render", "cma") and amount.isdigit() and int(amount) >= 1:
         return kind, int(amount)
-    raise VtoError(f"--refine takes none, imitator:K (K >= 1 gradient steps) or render:B (B >= 1 renders), "
+    raise VtoError(f"--refine takes none, imitator:K (K >= 1 gradient steps), render:B or cma:B (B >= 1 renders), "
                    f"got '{text}'")
 
 
@@ -137,7 +138,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
         start_unit = spec.normalise(spec.vector(values))
     wraps = np.array([p.wraps for p in spec.modelled_params])
     started = time.perf_counter()
-    if kind == "render":
+    if kind in ("render", "cma"):
         if res is None:
             if reference.shape[0] != reference.shape[1]:
                 raise VtoError(f"{image_path} is {reference.shape[1]}x{reference.shape[0]}; renders are square: pass "
@@ -151,7 +152,8 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
             held = own_source_held(spec, spec.values(spec.denormalise(start_unit)))
         refined = refine_by_render(lambda u: on_source(spec.values(spec.denormalise(u))), at_size(reference, res, res),
                                    start_unit, amount, seed, wraps, objective,
-                                   SIGMA_FROM_MEAN if start_at == "mean" else SIGMA, held)
+                                   SIGMA_FROM_MEAN if start_at == "mean" else SIGMA, held,
+                                   "fit" if kind == "render" and objective == "mse" else "cma")
         result["renders"] = refined.renders
     else:
         if imitator_refine is None:
@@ -179,7 +181,9 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
     parser.add_argument("--source", default=None, help="the reference's source: a default-scene seed, or a hair "
                                                       "photo with a mask (default: the image itself, for hair)")
     parser.add_argument("--refine", default="none", help="none (encoder only), imitator:K (K gradient steps through "
-                                                         "the imitator, needs torch) or render:B (CMA-ES, B renders)")
+                                                         "the imitator, needs torch), render:B (a fit through the "
+                                                         "renderer, B renders; CMA-ES with --objective ssim) or cma:B "
+                                                         "(CMA-ES, B renders)")
     parser.add_argument("--imitator", default=None, help="imitator run folder, for --refine imitator:K")
     parser.add_argument("--res", type=int, default=None, help="render size of render search (default: the reference's)")
     parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES, help="Cycles samples of refinement renders")

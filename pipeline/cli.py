@@ -29,6 +29,9 @@ def cmd_eval(argv: list[str]) -> int:
                         help="another encoder of the same spec, evaluated on the same references (repeatable)")
     parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
                         help="lipstick: the default lips scene's lighting (default portrait)")
+    parser.add_argument("--search-seed-offset", type=int, default=0,
+                        help="Cycles seed of what methods render on source A, past the reference's (0: its own seed, "
+                             "the reference's noise shared; another value: noise of their own, as against a photo)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     compare = tuple(tuple(item.split("=", 1)) for item in args.compare)
@@ -39,7 +42,8 @@ def cmd_eval(argv: list[str]) -> int:
     except ValueError:
         raise VtoError(f"--search-from-mean takes render budgets like 100,400, got '{args.search_from_mean}'") from None
     settings = EvalSettings(args.n, args.res, args.samples, args.seed, tuple(r for r in args.refine.split(",") if r),
-                            from_mean, args.imitator, compare, lighting=args.lighting, quiet=args.quiet)
+                            from_mean, args.imitator, compare, lighting=args.lighting,
+                            search_seed_offset=args.search_seed_offset, quiet=args.quiet)
     summary = run_eval(args.model, args.out, settings)
     print(json.dumps({"out": args.out, **{m: {"psnr": s["psnr"][0], "ssim": s["ssim"][0], "ms": s["ms_per_reference"]}
                                           for m, s in summary.items()}}))

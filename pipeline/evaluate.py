@@ -5,7 +5,7 @@ the A render; render the estimate on B with the Cycles seed of the truth (so ren
 with PSNR, SSIM and, where VGG16 weights exist, the perceptual distance, plus per-parameter absolute error.
 Baselines: the mean preset, and the nearest preset (every preset rendered on A, the closest to the reference kept:
 what an artist does by hand). Methods: the encoder, and each refinement of its estimate asked for (imitator:K,
-render:B), plus render search from the mean preset.
+render:B the fit through the renderer, cma:B the CMA-ES search), plus CMA-ES render search from the mean preset.
 
 Layering: this is the pipeline layer, above blender_addon (the renderer, bpy) and training (the imitator's
 refinement and the perceptual distance, torch); both are imported inside the functions that use them.
@@ -55,6 +55,9 @@ class EvalSettings:
     imitator: str | None = None  # imitator run for imitator:K
     compare: tuple[tuple[str, str], ...] = ()  # (name, ONNX path): other encoders of the same spec, same references
     lighting: str | None = None  # the default lips scene's: "wide" or "portrait" (None: its default)
+    # What methods render on A (nearest preset, searches) uses the reference's Cycles seed plus this: 0 shares the
+    # reference's noise, as a search on a render of one's own scene can; another value is a photo's case.
+    search_seed_offset: int = 0
     sheet_rows: int = 6
     quiet: bool = False
 
@@ -126,7 +129,7 @@ class PerceptualMeter:
 
 def methods(settings: EvalSettings) -> dict[str, tuple[str, int]]:
     """The compared methods in table order: name -> (kind, K or B); kinds are 'mean', 'nearest', 'encoder',
-    'imitator' and 'render' (refining the encoder's estimate), 'render from mean'."""
+    'imitator', 'render' (the fit) and 'cma' (refining the encoder's estimate), 'render from mean' (CMA-ES)."""
     from blender_addon.match import parse_refine
 
     found = {"mean preset": ("mean", 0), "nearest preset": ("nearest", 0), "encoder": ("encoder", 0)}
@@ -136,6 +139,8 @@ def methods(settings: EvalSettings) -> dict[str, tuple[str, int]]:
             found[f"encoder + imitator {amount}"] = (kind, amount)
         elif kind == "render":
             found[f"encoder + render search {amount}"] = (kind, amount)
+        elif kind == "cma":
+            found[f"encoder + CMA-ES search {amount}"] = (kind, amount)
     for budget in settings.search_from_mean:
         found[f"render search {budget} from the mean preset"] = ("render from mean", budget)
     for index, (name, _) in enumerate(settings.compare):
@@ -226,6 +231,11 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
         on_a = SourceRenderer(spec.renderer, source_a, settings.res, settings.samples, cycles_seed, settings.lighting)
         source_ms = 1000 * (time.perf_counter() - started)  # hair: the source render every A-side method needs
         reference = on_a(values)
+        if settings.search_seed_offset:
+            started = time.perf_counter()
+            on_a = SourceRenderer(spec.renderer, source_a, settings.res, settings.samples,
+                                  cycles_seed + settings.search_seed_offset, settings.lighting)
+            source_ms = 1000 * (time.perf_counter() - started)
         estimates, ms = {"mean preset": mean_values}, {"mean preset": 0.0}
 
         started = time.perf_counter()
@@ -250,13 +260,13 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
                 estimates[name] = others[amount].predict(reference)[0]
                 ms[name] = 1000 * (time.perf_counter() - started)
                 continue
-            elif kind == "render":
+            elif kind in ("render", "cma"):
                 found = refine_by_render(lambda u: on_a(unit_values(u)), reference, encoder_unit, amount,
-                                         cycles_seed, wraps)
+                                         cycles_seed, wraps, search="fit" if kind == "render" else "cma")
                 spent_before = ms["encoder"] + source_ms
-            else:
+            else:  # from the mean preset, far from most looks: the derivative-free search, with a wide first step
                 found = refine_by_render(lambda u: on_a(unit_values(u)), reference, mean_unit, amount, cycles_seed,
-                                         wraps, sigma=SIGMA_FROM_MEAN)
+                                         wraps, sigma=SIGMA_FROM_MEAN, search="cma")
                 spent_before = source_ms
             estimates[name] = unit_values(found.unit)
             ms[name] = spent_before + 1000 * (time.perf_counter() - started)
@@ -353,13 +363,20 @@ def _pm(pair: list[float] | None, digits: int) -> str:
     return f"{pair[0]:.{digits}f} ± {pair[1]:.{digits}f}" if pair else "n/a"
 
 
+def seed_words(offset: int) -> str:
+    """How results.md names the Cycles seed of the renders methods make on source A."""
+    return ("the reference's Cycles seed (its noise shared)" if offset == 0 else
+            f"the reference's Cycles seed + {offset} (noise of its own, as against a photo)")
+
+
 def markdown(spec: RendererSpec, summary: dict, settings: EvalSettings, model: str, perceptual_note: str) -> str:
     """results.md: the transfer table, parameter errors and per-bucket PSNR."""
     methods = list(summary)
     lines = [f"# Transfer evaluation of {Path(model).name} ({spec.renderer}: {', '.join(spec.modelled)})", "",
              f"{settings.n} sampled looks (eval seed {settings.seed}), {settings.res} px, {settings.samples} spp; each "
              "estimated from its render on source A and compared on source B with the truth's Cycles seed "
-             f"(paper 7.2.1). {perceptual_note}.", "",
+             f"(paper 7.2.1); what methods render on A uses {seed_words(settings.search_seed_offset)}. "
+             f"{perceptual_note}.", "",
              "| method | PSNR dB (mean ± std) | PSNR median | gain over mean preset dB | SSIM (mean ± std) "
              "| perceptual | ms per reference |", "|---|---|---|---|---|---|---|"]
     lines += [f"| {m} | {_pm(s['psnr'], 2)} | {s['psnr_median']:.2f} | {s['gain_over_mean_preset_db']:+.2f} "

@@ -64,3 +64,82 @@ def step_visibility(render: Callable[[dict[str, float], int], np.ndarray], param
         high = {**base, param.name: param.from_unit(high_unit)}
         ratios.append(visibility_ratio(render(low, 0), render(high, 1), render(low, 1), block, mask))
     return ratios
+
+
+# How precisely one render pins the parameters (a floor for any reader of that render, learned or not): the render's
+# derivatives against its seed-to-seed noise, linearised about a look, with the sampler's spread as prior. A changed
+# parameter changes which light paths Cycles samples, so two renders on one seed differ by noise as well as by the
+# change: derivatives are taken on several seeds, and the information from two independent halves of them.
+
+def seed_differences(render: Callable[[np.ndarray, int], np.ndarray], unit: np.ndarray, seeds: list[int],
+                     step: float = 0.05) -> np.ndarray:
+    """render(unit (P,), cycles_seed) -> image (...); returns (K, P, ...) central differences d image / d unit on each
+    of the K seeds, kept inside [0, 1] (one-sided at the ends). 2 K renders a parameter."""
+    unit = np.asarray(unit, np.float64)
+    out = []
+    for seed in seeds:
+        columns = []
+        for j in range(unit.size):
+            low, high = unit.copy(), unit.copy()
+            low[j], high[j] = max(unit[j] - step, 0.0), min(unit[j] + step, 1.0)
+            columns.append((np.asarray(render(high, seed), np.float64) - render(low, seed)) / (high[j] - low[j]))
+        out.append(np.stack(columns))
+    return np.stack(out)
+
+
+def camera_jacobian(image: np.ndarray, step: float = 0.05) -> np.ndarray:
+    """image (H, W, 3) display sRGB in [0, 1] -> (2, H, W, 3): its change per stop of exposure and per unit of the
+    white-balance shift d (linear gains 1 + d, 1, 1 - d), the two residual errors of the default scene's camera."""
+    from .colour import linear_to_srgb, srgb_to_linear
+
+    linear = srgb_to_linear(np.clip(image, 0.0, 1.0)).astype(np.float64)
+
+    def shown(gains):
+        return linear_to_srgb(np.clip(linear * gains, 0.0, 1.0)).astype(np.float64)
+
+    exposure = (shown(2.0**step) - shown(2.0**-step)) / (2.0 * step)
+    tint = np.array([1.0, 0.0, -1.0])
+    balance = (shown(1.0 + step * tint) - shown(1.0 - step * tint)) / (2.0 * step)
+    return np.stack([exposure, balance])
+
+
+def block_means(images: np.ndarray, mask: np.ndarray, block: int = 4) -> np.ndarray:
+    """images (..., H, W, C) -> (..., B, C): means of the block x block tiles at least half inside mask (H, W).
+    Denoised render noise is smooth over a few pixels; block means are closer to independent than pixels are."""
+    images = np.asarray(images, np.float64)
+    *lead, height, width, channels = images.shape
+    rows, cols = height // block, width // block
+    tiles = images[..., : rows * block, : cols * block, :].reshape(*lead, rows, block, cols, block, channels)
+    inside = np.asarray(mask, np.float64)[: rows * block, : cols * block].reshape(rows, block, cols, block).mean((1, 3))
+    return tiles.mean((-4, -2))[..., inside >= 0.5, :]
+
+
+def noise_variance(renders: np.ndarray) -> np.ndarray:
+    """renders (K, ..., C) of one look on K Cycles seeds -> (C,) variance about their mean, pooled over the rest."""
+    renders = np.asarray(renders, np.float64)
+    deviations = (renders - renders.mean(0)).reshape(renders.shape[0], -1, renders.shape[-1])
+    return (deviations**2).sum((0, 1)) / max((renders.shape[0] - 1) * deviations.shape[1], 1)
+
+
+def render_information(differences: np.ndarray, variance: np.ndarray) -> np.ndarray:
+    """differences (K, P, ..., C) on K >= 2 seeds, variance (C,) of one render's noise -> Fisher information (P, P).
+
+    J^T C^-1 J with J from one half of the seeds against the other (their noise is independent, so the noise does not
+    count as signal), symmetrised and kept positive semi-definite. Noise is taken as independent between the
+    entries; what is left of its correlation makes this optimistic.
+    """
+    differences = np.asarray(differences, np.float64)
+    weights = 1.0 / np.sqrt(np.maximum(np.asarray(variance, np.float64), 1e-20))
+    scaled = (differences * weights).reshape(differences.shape[0], differences.shape[1], -1)
+    half_a, half_b = scaled[0::2].mean(0), scaled[1::2].mean(0)
+    cross = half_a @ half_b.T
+    values, vectors = np.linalg.eigh((cross + cross.T) / 2.0)
+    return (vectors * np.maximum(values, 0.0)) @ vectors.T
+
+
+def parameter_floor(information: np.ndarray, prior: np.ndarray) -> np.ndarray:
+    """The posterior covariance (P, P) of P parameters from their information (P, P) and prior covariance (P, P):
+    (F + prior^-1)^-1, finite where a parameter does not show at all (its prior comes back)."""
+    information, prior = np.asarray(information, np.float64), np.asarray(prior, np.float64)
+    # = S - S F (I + S F)^-1 S: no inverse of F (singular where a parameter does not show) nor of S.
+    return prior - prior @ information @ np.linalg.solve(np.eye(len(prior)) + prior @ information, prior)

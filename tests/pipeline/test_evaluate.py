@@ -103,6 +103,27 @@ def test_the_comparison_renders_on_source_b_with_the_truths_cycles_seed(evaluate
     assert psnr(on_b, truth) == pytest.approx(look["methods"]["mean preset"]["psnr"], abs=0.05)
 
 
+def test_a_search_seed_offset_moves_what_methods_render_on_a_off_the_references_noise(models, tmp_path):
+    """With --search-seed-offset the nearest preset is the closest of the presets rendered on seed + offset."""
+    from blender_addon.commands import render
+    from vto_core.metrics import mse
+
+    out = tmp_path / "offset"
+    assert cmd_eval(["--model", models[0], "--n", "1", "--res", str(RES), "--samples", str(SAMPLES),
+                     "--search-seed-offset", "1000", "--quiet", "--out", str(out)]) == 0
+    look = json.loads((out / "results.json").read_text())["looks"][0]
+    reference = render("lipstick", look["truth"], look["source_a"], RES, SAMPLES, look["cycles_seed"])
+
+    def distances(seed):
+        return {name: mse(render("lipstick", SPEC.full_values(values), look["source_a"], RES, SAMPLES, seed),
+                          reference) for name, values in load_presets("lipstick").items()}
+
+    on_other_seed = distances(look["cycles_seed"] + 1000)
+    assert look["nearest_preset"] == min(on_other_seed, key=on_other_seed.get)
+    assert on_other_seed != distances(look["cycles_seed"])  # the offset did change what was compared
+    assert "Cycles seed + 1000" in (out / "results.md").read_text()
+
+
 def test_tables_plots_and_contact_sheet_are_written(evaluated):
     out, _ = evaluated
     text = (out / "results.md").read_text()
