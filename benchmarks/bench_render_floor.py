@@ -76,7 +76,7 @@ def measure_look(spec, sampler, prior: np.ndarray, seed: int, index: int, res: i
     from blender_addon.dataset import source_id
     from blender_addon.lipstick import render_lipstick
     from blender_addon.scene_lips import lips_mask
-    from vto_core.visibility import (block_means, camera_jacobian, noise_variance, parameter_floor,
+    from vto_core.visibility import (camera_jacobian, masked_block_means, noise_variance, parameter_floor,
                                      render_information, seed_differences)
 
     unit = sampler.sample_unit(index)
@@ -93,25 +93,23 @@ def measure_look(spec, sampler, prior: np.ndarray, seed: int, index: int, res: i
     block = max(res // 16, 1)  # the same patch of lips at every resolution
     mask = lips_mask(source, res)
     noisy = np.stack([render(unit, s) for s in cycles_seeds]).astype(np.float64)
-    variance = noise_variance(block_means(noisy, mask, block))
-    differences = block_means(seed_differences(render, unit, cycles_seeds), mask, block)
-    tone = block_means(seed_differences(render_tone, np.zeros(1), cycles_seeds, TONE_STEP), mask, block)
-    camera = block_means(camera_jacobian(noisy.mean(0)), mask, block)
+    variance = noise_variance(masked_block_means(noisy, mask, block))
+    differences = masked_block_means(seed_differences(render, unit, cycles_seeds), mask, block)
+    tone = masked_block_means(seed_differences(render_tone, np.zeros(1), cycles_seeds, TONE_STEP), mask, block)
+    camera = masked_block_means(camera_jacobian(noisy.mean(0)), mask, block)
     camera = np.broadcast_to(camera, (seeds, *camera.shape))
+    # One information matrix for the parameters and every nuisance, so that each reader's floor is a marginal of the
+    # same Gaussian: a reader told less can only do worse.
+    information = render_information(np.concatenate([differences, camera, tone], axis=1), variance)
     size = len(prior)
+    full_prior = np.zeros((size + 3, size + 3))
+    full_prior[:size, :size] = prior
+    full_prior[size: size + 2, size: size + 2] = camera_prior()
+    full_prior[-1, -1] = TONE_PRIOR
     spreads = {"unit": unit, "prior": np.sqrt(np.diag(prior)), "reference": noisy[0].astype(np.float32)}
-    for reader, nuisance, nuisance_prior in (("known", [], []), ("camera", [camera], [camera_prior()]),
-                                             ("tone", [camera, tone], [camera_prior(), [[TONE_PRIOR]]])):
-        columns = np.concatenate([differences, *nuisance], axis=1)
-        extra = sum(len(p) for p in nuisance_prior)
-        full_prior = np.zeros((size + extra, size + extra))
-        full_prior[:size, :size] = prior
-        at = size
-        for block_prior in nuisance_prior:
-            full_prior[at: at + len(block_prior), at: at + len(block_prior)] = block_prior
-            at += len(block_prior)
-        floor = parameter_floor(render_information(columns, variance), full_prior)[:size, :size]
-        spreads[reader] = np.sqrt(np.diag(floor))
+    for reader, unknown in (("known", size), ("camera", size + 2), ("tone", size + 3)):
+        floor = parameter_floor(information[:unknown, :unknown], full_prior[:unknown, :unknown])
+        spreads[reader] = np.sqrt(np.diag(floor)[:size])
     return spreads
 
 

@@ -114,15 +114,17 @@ def ssim(a, b, data_range=1.0):
 
 
 def block_means(image, block=4):
-    """(H, W, C) -> (H//block, W//block, C) block averages (edge rows/columns that do not fill a block are dropped)."""
+    """(..., H, W, C) or (H, W) -> (..., H//block, W//block, C) block averages (edge rows/columns that do not fill a
+    block are dropped)."""
     image = np.asarray(image, dtype=np.float64)
     if image.ndim == 2:
         image = image[..., np.newaxis]
-    rows, columns = image.shape[0] // block, image.shape[1] // block
+    *lead, height, width, channels = image.shape
+    rows, columns = height // block, width // block
     if rows == 0 or columns == 0:
-        raise VtoError(f"block_means: image {image.shape[:2]} is smaller than one {block}x{block} block")
-    cropped = image[: rows * block, : columns * block]
-    return cropped.reshape(rows, block, columns, block, -1).mean(axis=(1, 3))
+        raise VtoError(f"block_means: image {(height, width)} is smaller than one {block}x{block} block")
+    cropped = image[..., : rows * block, : columns * block, :]
+    return cropped.reshape(*lead, rows, block, columns, block, channels).mean(axis=(-4, -2))
 
 
 def visibility_ratio(low_seed0, high_seed1, low_seed1, block=4, mask=None):

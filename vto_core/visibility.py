@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .metrics import visibility_ratio
+from .metrics import block_means, visibility_ratio
 from .specs import ParamSpec
 
 VISIBLE_RATIO = 3.0  # the change must stand this far above seed-to-seed noise (4x4 block means)
@@ -103,15 +103,11 @@ def camera_jacobian(image: np.ndarray, step: float = 0.05) -> np.ndarray:
     return np.stack([exposure, balance])
 
 
-def block_means(images: np.ndarray, mask: np.ndarray, block: int = 4) -> np.ndarray:
-    """images (..., H, W, C) -> (..., B, C): means of the block x block tiles at least half inside mask (H, W).
-    Denoised render noise is smooth over a few pixels; block means are closer to independent than pixels are."""
-    images = np.asarray(images, np.float64)
-    *lead, height, width, channels = images.shape
-    rows, cols = height // block, width // block
-    tiles = images[..., : rows * block, : cols * block, :].reshape(*lead, rows, block, cols, block, channels)
-    inside = np.asarray(mask, np.float64)[: rows * block, : cols * block].reshape(rows, block, cols, block).mean((1, 3))
-    return tiles.mean((-4, -2))[..., inside >= 0.5, :]
+def masked_block_means(images: np.ndarray, mask: np.ndarray, block: int = 4) -> np.ndarray:
+    """images (..., H, W, C) -> (..., B, C): the block means (metrics.block_means) of the B blocks at least half
+    inside mask (H, W). Denoised render noise is smooth over a few pixels; block means are closer to independent."""
+    inside = block_means(np.asarray(mask, np.float64), block)[..., 0] >= 0.5
+    return block_means(images, block)[..., inside, :]
 
 
 def noise_variance(renders: np.ndarray) -> np.ndarray:

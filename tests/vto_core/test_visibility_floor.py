@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from vto_core.colour import linear_to_srgb, srgb_to_linear
-from vto_core.visibility import (block_means, camera_jacobian, noise_variance, parameter_floor, render_information,
-                                 seed_differences)
+from vto_core.visibility import (camera_jacobian, masked_block_means, noise_variance, parameter_floor,
+                                 render_information, seed_differences)
 
 SLOPES = np.array([[0.2, 0.0, 0.1], [0.0, 0.05, 0.3]])  # (P=2, C=3): how the image's colour moves with each unit
 SIGMA = 0.02
@@ -57,11 +57,11 @@ def test_camera_jacobian_is_the_derivative_per_stop_and_per_white_balance_shift(
     assert white[0, 0, 0, 0] == pytest.approx(float(linear_to_srgb(1.0) - linear_to_srgb(2**-0.05)) / 0.1, rel=1e-4)
 
 
-def test_block_means_keep_the_blocks_mostly_inside_the_mask():
+def test_masked_block_means_keep_the_blocks_mostly_inside_the_mask():
     images = np.arange(2 * 8 * 8 * 3, dtype=np.float64).reshape(2, 8, 8, 3)
     mask = np.zeros((8, 8), bool)
     mask[:4, :3] = True  # 3/4 of the top-left 4x4 block, nothing of the others
-    blocks = block_means(images, mask, 4)
+    blocks = masked_block_means(images, mask, 4)
     assert blocks.shape == (2, 1, 3)
     assert blocks[0, 0] == pytest.approx(images[0, :4, :4].mean((0, 1)))
 
