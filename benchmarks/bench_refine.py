@@ -39,7 +39,7 @@ def section(results: dict[int, dict], command: str) -> tuple[str, str]:
     rows = []
     for offset, result in results.items():
         for method, summary in result["summary"].items():
-            if method == "mean preset" or (offset and method in ("encoder",)):
+            if method == "mean preset" or (offset and method == "encoder"):
                 continue  # the same in both runs: shown once
             row = [method, "-" if method == "encoder" else NOISE[offset], f"{summary['gain_over_mean_preset_db']:+.2f}"]
             if colour:

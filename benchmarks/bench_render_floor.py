@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import RESULTS, table, write_section
+from benchmarks.common import RESULTS, lip_colour, table, write_section
 
 COLOUR = ("red", "green", "blue")
 OTHERS = ("opacity", "gloss", "reflection")
@@ -120,8 +120,8 @@ def encoder_errors(spec, model: str, looks: list[dict], opaque: np.ndarray) -> t
     found = EncoderSession(model).predict([look["reference"] for look in looks])
     found_unit = np.array([spec.normalise(spec.vector(f)) for f in found])
     truth = np.array([look["unit"] for look in looks])
-    colour = [spec.modelled.index(name) for name in COLOUR]
-    colour_error = np.abs(found_unit[:, colour] - truth[:, colour])[opaque] * 255.0
+    true_colour = np.array([lip_colour(spec.values(spec.denormalise(u))) for u in truth])
+    colour_error = np.abs(np.array([lip_colour(f) for f in found]) - true_colour)[opaque]
     return float(np.median(colour_error)), [float(np.abs(found_unit[:, spec.modelled.index(n)] -
                                                           truth[:, spec.modelled.index(n)]).mean()) for n in OTHERS]
 

@@ -1,7 +1,8 @@
 """The speed-accuracy trade at match time, measured in one `vto eval` run on one machine (issue 9, item 5).
 
 Methods: mean preset, nearest preset, encoder, encoder + imitator K, encoder + render search B (the fit through the
-renderer), encoder + CMA-ES search B, CMA-ES render search from the mean preset. Writes speed_accuracy.md (table, machine) and speed_accuracy.png (the Pareto front) into --results.
+renderer), encoder + CMA-ES search B, CMA-ES render search from the mean preset. Writes speed_accuracy.md (table,
+machine) and speed_accuracy.png (the Pareto front) into --results.
 
     .venv/bin/python -m benchmarks.bench_speed_accuracy --model M.onnx --imitator RUN [--n 24] [--res 64]
 """
