@@ -1,9 +1,12 @@
-"""Match in a real Blender window: click-to-values time, first and warm (Blender 4.3.2, Python 3.13, Xvfb).
+"""Match in a real Blender window: click-to-values time, first and warm, Fast and Better (Blender 4.3.2, Python 3.13,
+Xvfb).
 
 Runs scripts/real_window/run.sh (root; the Debian trixie chroot is made the first time) and records the times the
-operator reports for three clicks on Match in the Material tab and one in the Compositor's sidebar.
+operator reports: three clicks on Match (Fast) in the Material tab on a whole portrait (scikit-image's astronaut; the
+add-on finds her lips), two with Better chosen in the Quality row (the modal fit through the renderer), and one in the
+Compositor's sidebar on a patch of her hair. `--from DIR` reads a finished run's DIR/result.json instead.
 
-    sudo .venv/bin/python -m benchmarks.bench_real_window [--out DIR]
+    sudo .venv/bin/python -m benchmarks.bench_real_window [--out DIR | --from DIR]
 """
 
 from __future__ import annotations
@@ -17,31 +20,80 @@ from pathlib import Path
 from benchmarks.common import table, write_section
 
 ROOT = Path(__file__).resolve().parents[1]
+WARM_GOAL_MS = 20.0  # the encoder's click-to-values goal for a warm click
+LOCATOR_MS = 15.0  # plus the lips locator on a whole portrait (benchmarks/results/locator.md)
+
+
+def shade(values: dict) -> str:
+    return "({:.0f}, {:.0f}, {:.0f}) at opacity {:.2f}, gloss {:.2f}, reflection {:.2f}".format(
+        *(values[k] for k in ("Red", "Green", "Blue", "Opacity", "Gloss", "Reflection")))
+
+
+def stall(out: Path) -> str:
+    """Where Blender's main thread hung, from the stacks stage 2 dumps when its main loop stalls ('' if it did not)."""
+    log = out / "stage2.log"
+    lines = log.read_text(errors="replace").splitlines() if log.exists() else []
+    if not any(line.startswith("Timeout (") for line in lines):
+        return ""
+    start = next(i for i, line in enumerate(lines) if line.startswith("Timeout ("))
+    frames = [line.strip() for line in lines[start:] if "vto_match/" in line]
+    where = frames[0].split("vto_match/", 1)[1].replace('", line', " line") if frames else "?"
+    others = [line.strip().split("/scripts/", 1)[-1] for line in lines[start:] if "cycles/" in line][:1]
+    return (f": Blender's main loop hung in {where}" + (f" while another thread rendered in {others[0]}"
+                                                         .replace('", line', " line") if others else "")
+            + " (every thread's stack is in stage2.log)")
 
 
 def main() -> None:
-    """Run the real-window script once and write benchmarks/results/real_window.md."""
+    """Run the real-window script once (or read a run) and write benchmarks/results/real_window.md."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default=None)
-    out = Path(parser.parse_args().out or tempfile.mkdtemp(prefix="vto-real-window-"))
-    subprocess.run(["bash", str(ROOT / "scripts" / "real_window" / "run.sh"), str(out)], check=True)
+    parser.add_argument("--out", default=None, help="where run.sh writes (default: a new temporary folder)")
+    parser.add_argument("--from", dest="source", default=None, help="a finished run's folder: read, do not run")
+    args = parser.parse_args()
+    if args.source:
+        out = Path(args.source)
+    else:
+        out = Path(args.out or tempfile.mkdtemp(prefix="vto-real-window-"))
+        subprocess.run(["bash", str(ROOT / "scripts" / "real_window" / "run.sh"), str(out)])  # (exit 4: see below)
     window = json.loads((out / "result.json").read_text())
-    first, second, third = window["lips"]["ms"]
-    rows = [["lipstick, first click", f"{first:.1f}"], ["lipstick, second click (warm)", f"{second:.1f}"],
-            ["lipstick, third click (warm)", f"{third:.1f}"]]
+    lips = window["lips"]
+    first, second, third = lips["ms"]
+    rows = [["lipstick Fast, first click", f"{first:.1f}"], ["lipstick Fast, second click (warm)", f"{second:.1f}"],
+            ["lipstick Fast, third click (warm)", f"{third:.1f}"]]
+    better = lips.get("better_ms", [])
+    labels = ["lipstick Better, first click (renders the 24-source pool first)",
+              "lipstick Better, clicked right after choosing Better"]
+    rows += [[label, f"{ms:,.0f}"] for label, ms in zip(labels, better)]
     if "ms" in window.get("hair", {}):
-        rows.append(["hair, Compositor sidebar", f"{window['hair']['ms'][0]:.1f}"])
-    estimate = window["lips"]["first"]
-    shade = "({:.0f}, {:.0f}, {:.0f}) at opacity {:.2f}".format(*(estimate[k] for k in ("Red", "Green", "Blue",
-                                                                                          "Opacity")))
-    print(json.dumps({"lips_ms": window["lips"]["ms"], "classic_red_estimate": shade}))
-    write_section("real_window", "real-window", (
+        rows.append(["hair Fast, Compositor sidebar", f"{window['hair']['ms'][0]:.1f}"])
+    found = lips.get("found", {})
+    warm = min(second, third)
+    goal = WARM_GOAL_MS + LOCATOR_MS
+    print(json.dumps({"lips_ms": lips["ms"], "better_ms": better, "fast": shade(lips["first"]),
+                      "better": shade(lips["better"]) if "better" in lips else None, "lips_box": found.get("box"),
+                      "errors": window.get("errors")}))
+    problems = window.get("errors", [])
+    if not window.get("completed"):
+        problems = problems + [f"the run stopped after the step {window.get('last_step')!r}{stall(out)}"]
+    text = (
         "## Match in a real window (Debian's Blender 4.3.2, Python 3.13, Xvfb + llvmpipe, real X11 clicks)\n\n"
-        "Click-to-values time as the operator reports it; the goal for a warm click is 20 ms.\n\n"
+        "Click-to-values time as the operator reports it (from the click's invoke to the values written, the lips "
+        f"locator included). The goal for a warm Fast click is {WARM_GOAL_MS:.0f} ms plus the lips locator "
+        f"(~{LOCATOR_MS:.0f} ms), {goal:.0f} ms: the faster warm click took {warm:.1f} ms"
+        f" ({'within' if warm <= goal else 'over'} it).\n\n"
         + table(["click", "ms"], rows)
-        + "\n\nThe reference is the Classic Red preset, set (190, 20, 35) at opacity 0.95, rendered afresh on "
-          f"default source 0 at 128 px; Match (Fast) with the shipped model wrote {shade}."
-        + "\n\nReproduce: `sudo .venv/bin/python -m benchmarks.bench_real_window`."))
+        + "\n\nThe reference is scikit-image's astronaut portrait (NASA, public domain), whole, 512 x 512 px"
+        + (f"; the add-on found her lips at x, y, w, h = {tuple(found['box'])} and read the {found['frame'][2]} px "
+           f"square {tuple(found['frame'])} around them" if found else "")
+        + f". Match (Fast) with the shipped model wrote {shade(lips['first'])}."
+        + (f" Better (25 renders on the default scene whose skin is most like hers) wrote {shade(lips['better'])}."
+           if "better" in lips else "")
+        + " Debian's Blender is built without OpenImageDenoise, so the fit's renders are not denoised here."
+        + " The hair reference is a patch of her hair (rows 20-90, columns 150-230)."
+        + ("\n\nWhat went wrong in this run:\n\n" + "\n".join(f"- {p.strip().splitlines()[-1]}" for p in problems)
+           if problems else "")
+        + "\n\nReproduce: `sudo .venv/bin/python -m benchmarks.bench_real_window`.")
+    write_section("real_window", "real-window", text)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Run every benchmark in turn (`make bench`)."""
 
-from benchmarks import (bench_batch, bench_dataset, bench_hair_match, bench_mask_crop, bench_match, bench_render,
-                        bench_training)
+from benchmarks import (bench_batch, bench_dataset, bench_hair_colour, bench_hair_match, bench_locator, bench_mask_crop,
+                        bench_match, bench_real_photos, bench_render, bench_training)
 
 
 def main() -> None:
@@ -13,6 +13,9 @@ def main() -> None:
     bench_batch.main([])
     bench_match.main([])
     bench_mask_crop.main()
+    bench_locator.main([])
+    bench_real_photos.main([])
+    bench_hair_colour.main([])
 
 
 if __name__ == "__main__":

@@ -10,9 +10,13 @@ all feed the same function:
     image_path | image_name     the reference: a file, or an image datablock already in the .blend
     crop                        (x, y, w, h) from the top-left: pixels, or fractions when all four are <= 1; or None
     mask_path                   an image whose > 0.5 region is the lips (the reference is framed around it) or the
-                                hair (the photo's hair for refinement: Better / Best)
+                                hair (the encoder reads its largest square; Better and Best fit all of it)
+    find_lips                   lipstick, no mask: find the lips with the face locator (default True); False takes
+                                the image (or crop) as it is
     model_path                  the encoder; "" = the add-on preferences' path, else the shipped default
-    quality                     FAST (encoder only), BETTER (render:25), BEST (render:100)
+    quality                     FAST (the encoder's estimate fitted to the colour of the photo's lips or hair
+                                through the colour imitator), BETTER, BEST (then through the real renderer:
+                                blender_addon.photo_fit)
 """
 
 from __future__ import annotations
@@ -25,17 +29,15 @@ from pathlib import Path
 import numpy as np
 
 from vto_core.errors import VtoError
-from vto_core.imageio import resize
 from vto_core.inference import EncoderSession, cached_session
 from vto_core.specs import RendererSpec, get_spec
 
 from .compat import uses_nodes
+from .photo_fit import FIT_QUALITY, NO_REGION, PHOTO_HAIR, QUALITIES, fit_photo_fast, iter_fit_photo, photo_values
 from .reference import absolute_path, read_reference
+from .refine import drain
 
 MODELS = Path(__file__).parent / "models"
-QUALITY_BUDGET = {"FAST": 0, "BETTER": 25, "BEST": 100}  # renders of the render search (blender_addon.refine)
-NO_LIPSTICK_SOURCE = ("Better and Best refine by rendering the reference's own source; a photo of a real face has "
-                      "none, so only Fast (the encoder's estimate) applies to lipstick")
 
 
 def default_model(renderer: str) -> Path:
@@ -100,11 +102,17 @@ def hair_nodes(scene) -> list:
             and n.node_tree.name.startswith((SWATCH_GROUP, COLOR_GROUP))]
 
 
+def written_params(spec: RendererSpec) -> list:
+    """The parameters a match writes: the modelled ones, and for hair what a photo fixes (photo_fit.PHOTO_HAIR)."""
+    names = list(spec.modelled) + [n for n in PHOTO_HAIR if spec.renderer == "hair" and n not in spec.modelled]
+    return [spec.by_name[name] for name in names]
+
+
 def writable_sockets(nodes: list, spec: RendererSpec, where: str) -> list:
-    """(socket, name) for each modelled parameter on each node having its input; linked inputs are an error."""
+    """(socket, name) for each written parameter on each node having its input; linked inputs are an error."""
     targets = []
     for node in nodes:
-        for param in spec.modelled_params:
+        for param in written_params(spec):
             socket = node.inputs.get(param.socket)
             if socket is None:
                 continue
@@ -113,17 +121,17 @@ def writable_sockets(nodes: list, spec: RendererSpec, where: str) -> list:
                                f"cannot take the estimated {param.name}; unlink it, or use a model without "
                                f"{param.name}")
             targets.append((socket, param.name))
-    missing = set(spec.modelled) - {name for _, name in targets}
+    missing = {p.name for p in written_params(spec)} - {name for _, name in targets}
     if missing:
         raise VtoError(f"{where}: no group input for {', '.join(sorted(missing))} (a group from another version?)")
     return targets
 
 
 def current_values(nodes: list, spec: RendererSpec) -> dict[str, float]:
-    """The first node's value of each modelled parameter it has (what a match would overwrite)."""
+    """The first node's value of each written parameter it has (what a match would overwrite)."""
     values = {}
     for node in nodes:
-        for param in spec.modelled_params:
+        for param in written_params(spec):
             socket = node.inputs.get(param.socket)
             if socket is not None and param.name not in values:
                 values[param.name] = float(socket.default_value)
@@ -138,68 +146,40 @@ def estimate(session: EncoderSession, spec: RendererSpec, reference: np.ndarray)
     return {name: float(values[name]) for name in spec.modelled}
 
 
-def iter_refine_hair(spec: RendererSpec, reference: np.ndarray, mask: np.ndarray, start: dict[str, float],
-                     budget: int, res: int, seed: int = 0):
-    """Render search (the fit through the hair stage) on the photo itself, its mask as the hair: `budget` renders.
-
-    Intensity and blend are held at full effect while searching and keep the encoder's values (hair.OWN_SOURCE_HELD).
-
-    A generator: yields the renders made so far, returns the refined modelled values.
-    """
-    from .hair import HairSource, own_source_held, run_hair_stage
-    from .refine import iter_refine_by_render
-
-    rgb = reference if reference.shape[:2] == (res, res) else resize(reference, res, res)
-    small_mask = mask if mask.shape == (res, res) else (resize(mask, res, res) > 0.5).astype(np.float32)
-    source = HairSource(np.clip(rgb, 0, 1).astype(np.float32), small_mask)
-    wraps = np.array([p.wraps for p in spec.modelled_params])
-    refined = yield from iter_refine_by_render(
-        lambda unit: run_hair_stage(source, spec.values(spec.denormalise(unit))), source.rgb,
-        spec.normalise(spec.vector(start)), budget, seed, wraps, held=own_source_held(spec, start))
-    full = spec.values(spec.denormalise(refined.unit))
-    return {name: float(full[name]) for name in spec.modelled}
-
-
 def prepare(renderer: str, settings: dict) -> dict:
-    """Everything up to the estimate, nothing written: {'session', 'spec', 'model', 'reference', 'mask', 'budget'}."""
+    """Everything up to the estimate, nothing written: {'session', 'spec', 'model', 'reference' (a
+    reference.Reference), 'quality', 'budget'}."""
     quality = settings.get("quality", "FAST")
-    if quality not in QUALITY_BUDGET:
+    if quality not in QUALITIES:
         raise VtoError(f"quality is FAST, BETTER or BEST, got '{quality}'")
-    budget = QUALITY_BUDGET[quality]
-    if budget and renderer == "lipstick":
-        raise VtoError(NO_LIPSTICK_SOURCE)
     model = resolve_model(renderer, settings.get("model_path", ""), settings.get("preference_model", ""))
     session, spec = load_model(renderer, model)
-    # A lipstick mask says where the lips are: the encoder sees that region. A hair mask is the hair of the whole
-    # photo (the hair encoder sees whole portraits): it is refinement's source mask, not a crop.
-    reference, mask = read_reference({"crop_to_mask": renderer == "lipstick", **settings})
-    if budget and mask is None:
-        raise VtoError(f"quality {quality.title()} refines hair on the photo itself and needs its hair mask: choose "
-                       "a mask image, or use Fast")
-    return {"session": session, "spec": spec, "model": str(model), "reference": reference, "mask": mask,
-            "budget": budget}
+    reference = read_reference(renderer, settings)
+    if quality != "FAST" and reference.region is None:
+        raise VtoError(f"quality {quality.title()} {NO_REGION}")
+    return {"session": session, "spec": spec, "model": str(model), "reference": reference, "quality": quality,
+            "budget": FIT_QUALITY[renderer][quality][1] if quality != "FAST" else 0}
 
 
 def iter_compute(prepared: dict):
-    """The estimate, refined when the budget asks. A generator: yields renders made so far (none for Fast) and
-    returns modelled parameter -> raw value, inside its range."""
-    spec = prepared["spec"]
-    values = estimate(prepared["session"], spec, prepared["reference"])
-    if prepared["budget"]:
-        values = yield from iter_refine_hair(spec, prepared["reference"], prepared["mask"], values,
-                                             prepared["budget"], prepared["session"].input_size[0])
+    """The encoder's estimate fitted to the colour statistics of the photo's lips or hair (blender_addon.photo_fit):
+    through the colour imitator (Fast, milliseconds), then, when the quality asks, through the real renderer on
+    default sources. A generator: yields renders made so far (none for Fast) and returns parameter -> raw value,
+    inside its range: the modelled ones and what a photo fixes (photo_fit.photo_values)."""
+    spec, reference = prepared["spec"], prepared["reference"]
+    values = estimate(prepared["session"], spec, reference.image)
+    if reference.region is not None:
+        values, note = fit_photo_fast(spec, reference.region, values)
+        reference.notes += [note] if note else []
+    values = photo_values(spec, values)
+    if prepared["quality"] != "FAST":
+        from .scratch import scratch_data
+
+        with scratch_data():  # the default scenes the fit renders leave nothing in the artist's .blend
+            values = yield from iter_fit_photo(spec, reference.region, values,
+                                               prepared["quality"])
+        values = photo_values(spec, values)
     return values
-
-
-def drain(steps, progress: Callable[[int], None] | None = None):
-    """Run a generator to its end, passing each yielded count to `progress`; its return value."""
-    while True:
-        try:
-            done = next(steps)
-        except StopIteration as finished:
-            return finished.value
-        if progress is not None:
-            progress(done)
 
 
 def write(targets: list, values: dict[str, float]) -> None:
@@ -223,6 +203,7 @@ class MatchJob:
             warnings.simplefilter("always")
             self.prepared = prepare(renderer, settings)
         self.warnings = [str(w.message) for w in caught]  # e.g. NaN pixels read as 0: the operator reports them
+        self.notes = self.prepared["reference"].notes  # e.g. which face's lips were used
         self.spec = self.prepared["spec"]
         self.targets()
 
@@ -265,7 +246,7 @@ class MatchJob:
         previous = current_values(self.nodes(), self.spec)
         write(targets, values)
         return {"values": values, "spec": self.spec, "model": self.prepared["model"], "previous": previous,
-                "seconds": time.perf_counter() - self.started, "warnings": self.warnings}
+                "seconds": time.perf_counter() - self.started, "warnings": self.warnings, "notes": self.notes}
 
 
 def match_into_material(material_name: str, settings: dict,

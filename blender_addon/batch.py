@@ -31,9 +31,11 @@ from vto_core.inference import EncoderSession
 from vto_core.specs import ParamSpec, RendererSpec
 
 from .match import photo_source
-from .reference import at_size, load_reference
+from .photo_fit import fit_photo_fast, photo_values
+from .reference import at_size, read_reference
 
 ESTIMATES = "estimates"
+READER = 2  # how photos are read (2: lips found, hair squares, Fast's colour fit): older estimates are redone
 CHUNK = 32  # photos per encoder call
 
 
@@ -110,7 +112,23 @@ def model_fingerprint(path: str) -> str:
 
 def _cache_key(image: Path, fingerprint: str) -> dict:
     stat = image.stat()
-    return {"image": image.name, "bytes": stat.st_size, "mtime_ns": stat.st_mtime_ns, "model": fingerprint}
+    return {"image": image.name, "bytes": stat.st_size, "mtime_ns": stat.st_mtime_ns, "model": fingerprint,
+            "reader": READER}
+
+
+def fast_values(spec, reference, values: dict[str, float]) -> dict[str, float]:
+    """What Fast writes for a photo: the encoder's `values` fitted through the colour imitator (where the photo's
+    region is known), with what a photo fixes (blender_addon.photo_fit)."""
+    if reference.region is not None:
+        values = fit_photo_fast(spec, reference.region, {k: values[k] for k in spec.modelled})[0]
+    return spec.full_values(photo_values(spec, values))
+
+
+def batch_reference(renderer: str, image: Path):
+    """A photo of the folder made ready as the panel makes it (blender_addon.reference.read_reference): lips found
+    (lipstick), or hair cut by its '<name>_mask' beside it (hair; without one the photo is taken as all hair)."""
+    mask = next(iter(sorted(image.parent.glob(image.stem + "_mask.*"))), None)
+    return read_reference(renderer, {"image_path": str(image), "mask_path": str(mask) if mask else ""})
 
 
 def cached_estimate(out: Path, image: Path, fingerprint: str) -> dict[str, float] | None:
@@ -144,11 +162,13 @@ def estimate_images(session: EncoderSession, images: list[Path], out: Path, fing
             loaded = {}
             for image in todo[start:start + CHUNK]:
                 try:
-                    loaded[image] = load_reference(str(image))
+                    loaded[image] = batch_reference(session.spec.renderer, image)
                 except VtoError as exc:
                     skipped.append({"image": image.name, "reason": str(exc)})
             if loaded:
-                for image, values in zip(loaded, session.predict(list(loaded.values()))):
+                for (image, reference), values in zip(loaded.items(),
+                                                      session.predict([r.image for r in loaded.values()])):
+                    values = fast_values(session.spec, reference, values)
                     estimates[image.name] = values
                     record = {"key": _cache_key(image, fingerprint), "renderer": session.spec.renderer,
                               "params": values}
@@ -246,7 +266,7 @@ def cmd_batch(argv: list[str]) -> int:
     presets = {name: median_values(spec, [estimates[p.name] for p in paths]) for name, paths in products.items()}
     report["presets"] = write_presets(out, spec.renderer, presets)
     renders = render_products(spec.renderer, presets, products, args)
-    references = {name: load_reference(str(paths[0])) for name, paths in products.items()}
+    references = {name: batch_reference(spec.renderer, paths[0]).image for name, paths in products.items()}
     report["sheet"] = contact_sheet(out / "sheet.png", references, renders, args.res)
     report["sheet_rows"] = list(renders)
     if spec.renderer == "lipstick":

@@ -105,6 +105,12 @@ def cmd_dataset(argv: list[str]) -> int:
                              "encoder data trained with the graphics loss only (the imitator needs X)")
     parser.add_argument("--uniform-ratio", type=float, default=0.5, help="share of uniform draws vs the preset fit")
     parser.add_argument("--source-folder", default=None, help="hair: photos with <name>_mask beside them")
+    parser.add_argument("--looks-per-source", type=int, default=1,
+                        help="hair, default scene: this many consecutive looks share one source render (the stage "
+                             "costs ~7 ms a look, a hair render ~1 s)")
+    parser.add_argument("--masks", action="store_true",
+                        help="lipstick, default scene: also write each look's lips mask (what a colour imitator "
+                             "reads; hair datasets always hold their hair mask)")
     parser.add_argument("--blend", default=None, help="lipstick: a .blend whose active scene uses the VTO Lipstick group")
     parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
                         help="lipstick, default scene: portrait (a frontal key, neutral light, metered exposure; the "
@@ -140,7 +146,7 @@ def cmd_dataset(argv: list[str]) -> int:
     shard = parse_shard(args.shard) if args.shard else shard_from_env()
     job = DatasetJob(args.renderer, args.out, args.n, args.seed, args.res, args.samples, params, args.sensitivity,
                      args.uniform_ratio, args.source_folder, scene, args.lighting, not args.no_source,
-                     tuple(name for name in args.vary.split(",") if name))
+                     tuple(name for name in args.vary.split(",") if name), args.looks_per_source, args.masks)
     indices = shard_range(job.n, shard)
     if args.worker is not None:  # one of run_workers' processes: its share of the shard, then exit
         run_in_process(job, worker_indices(indices, parse_shard(args.worker)), args.limit, quiet=True)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import time
@@ -44,6 +45,8 @@ class DatasetJob:
     lighting: str | None = None  # lipstick, default scene: "wide" or "portrait" (scene_lips; None: its default)
     source_images: bool = True  # False: no X written (and for lipstick none rendered): graphics-loss encoder data
     vary: tuple[str, ...] = ()  # unmodelled inputs drawn per look over their ranges: the encoder learns to look past
+    looks_per_source: int = 1  # hair, default scene: consecutive looks share one source render (cached on disk)
+    masks: bool = False  # lipstick, default scene: also write the lips mask (hair always writes its hair mask)
     spec: RendererSpec = field(init=False)
 
     def __post_init__(self):
@@ -67,6 +70,12 @@ class DatasetJob:
             param = self.spec.by_name.get(name)
             if param is None or name in self.spec.modelled or not np.isfinite(param.high):
                 raise VtoError(f"--vary takes unmodelled {self.renderer} inputs with a finite range, got '{name}'")
+        if self.looks_per_source < 1 or (self.looks_per_source > 1 and (
+                self.renderer != "hair" or self.source_folder is not None)):
+            raise VtoError(f"--looks-per-source takes a count >= 1, above 1 for the default hair scene only, got "
+                           f"{self.looks_per_source}")
+        if self.masks and (self.renderer != "lipstick" or self.scene is not None):
+            raise VtoError("--masks writes the default lips scene's lips mask (hair datasets always have theirs)")
         if self.sensitivity and not self.source_images:
             raise VtoError("--sensitivity renders are for the imitator, which needs the source images: drop --no-source")
         if self.renderer == "lipstick" and self.scene is None:
@@ -88,6 +97,10 @@ class DatasetJob:
             settings["vary"] = list(self.vary)
         else:
             del settings["vary"]
+        if self.looks_per_source == 1:  # likewise
+            del settings["looks_per_source"]
+        if not self.masks:  # likewise
+            del settings["masks"]
         images = "16-bit PNG, display sRGB (Standard view transform)"
         if self.scene is not None:  # a user's scene: its own settings where no flag overrode them, its own values
             scene = bpy.data.scenes[self.scene]
@@ -153,8 +166,11 @@ class SampleRenderer:
         if self.user_scene is not None:  # the artist's values, only the modelled inputs sampled
             values = [{**self.own_values, **{name: v[name] for name in spec.modelled}} for v in values]
         values = [{**v, **varied_values(job, index)} for v in values]  # one scene for every render of a sample
-        source = source_id(job.seed, index)
-        cycles_seed = index  # one seed for every render of a sample: sensitivity differences share its noise
+        # One seed for every render of a sample: sensitivity differences share its noise. Looks that share a source
+        # share its render too, made with the seed of their group.
+        group = index // job.looks_per_source
+        source = source_id(job.seed, group)
+        cycles_seed = index if job.looks_per_source == 1 else group
         if job.renderer == "lipstick":
             source_image, images, extra = self._lipstick(source, cycles_seed, values)
         else:
@@ -189,7 +205,12 @@ class SampleRenderer:
                                    lighting=job.lighting)
 
         bare = draw({**values[0], "opacity": 0.0}) if job.source_images else None
-        return bare, [draw(v) for v in values], {}
+        extra = {}
+        if job.masks:
+            from .scene_lips import lips_mask
+
+            extra["mask"] = lips_mask(source, job.res, job.lighting).astype(np.float32)
+        return bare, [draw(v) for v in values], extra
 
     def _hair(self, source: int, cycles_seed: int, values: list[dict]):
         from .hair import load_photo_source, render_hair_source, run_hair_stage
@@ -197,9 +218,26 @@ class SampleRenderer:
         job = self.job
         if self.photos is not None:
             hair_source = load_photo_source(self.photos[source % len(self.photos)], job.res)
+        elif job.looks_per_source > 1:
+            hair_source = self._cached_hair_source(source, cycles_seed)
         else:
             hair_source = render_hair_source(source, job.res, job.samples, cycles_seed)
         return hair_source.rgb, [run_hair_stage(hair_source, v) for v in values], {"mask": hair_source.mask}
+
+    def _cached_hair_source(self, source: int, cycles_seed: int):
+        """The hair source of a group of looks: rendered once, kept in DIR/source_cache (written atomically)."""
+        from .hair import HairSource, render_hair_source
+
+        path = Path(self.job.out) / "source_cache" / f"{source}.npz"
+        if path.is_file():
+            with np.load(path) as cached:
+                return HairSource(cached["rgb"], cached["mask"])
+        hair_source = render_hair_source(source, self.job.res, self.job.samples, cycles_seed)
+        path.parent.mkdir(exist_ok=True)
+        temporary = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npz")
+        np.savez(temporary, rgb=hair_source.rgb, mask=hair_source.mask)
+        os.replace(temporary, path)
+        return hair_source
 
 
 def prepare_output(job: DatasetJob) -> None:

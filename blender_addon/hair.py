@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,7 +13,7 @@ import numpy as np
 
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
-from vto_core.hair import blur_radius, fit_hair_match, hair_gradient
+from vto_core.hair import blur_radius, fit_hair_match, hair_gradient, hair_square
 from vto_core.imageio import read_image, resize
 from vto_core.specs import RendererSpec, get_spec
 
@@ -23,6 +24,8 @@ from .scene_hair import HAIR_PASS_INDEX, apply_source, build_hair_scene
 
 SWATCH_PATH = Path(__file__).parent / "data" / "hair_swatch.png"
 PASS_SCENES = {SWATCH_GROUP: "VTO Hair Swatch Pass", COLOR_GROUP: "VTO Hair Color Pass"}
+# A hair region is cut from a render REGION_OVERSCAN times its size: the largest square at least REGION_SHARE hair.
+REGION_OVERSCAN, REGION_SHARE = 1.5, 0.98
 STAGE_IMAGES = ("VTO Hair Source", "VTO Hair Mask", "VTO Hair Gradient", "VTO Hair Swatch Image")
 
 
@@ -34,15 +37,27 @@ class HairSource:
     mask: np.ndarray
 
 
-def render_hair_source(source_seed: int, res: int = 64, samples: int = DEFAULT_SAMPLES, seed: int = 0) -> HairSource:
-    """Render the default hair scene for `source_seed`; the mask is the hair object's index pass."""
+def render_hair_source(source_seed: int, res: int = 64, samples: int = DEFAULT_SAMPLES, seed: int = 0,
+                       view: str = "region") -> HairSource:
+    """Render the default hair scene for `source_seed`; the mask is the hair object's index pass.
+
+    view "region" (the default source: hair, as an artist gives it) renders REGION_OVERSCAN x res and cuts the
+    largest square that is hair (vto_core.hair.hair_square), resized to res; "portrait" is the whole head.
+    """
     scene = build_hair_scene()
-    if scene.get("vto_source_seed") != int(source_seed):
-        apply_source(scene, int(source_seed))
-    configure_cycles(scene, res, samples, seed)
+    if scene.get("vto_source_seed") != int(source_seed) or scene.get("vto_view") != view:
+        apply_source(scene, int(source_seed), view)
+    size = res if view == "portrait" else int(math.ceil(REGION_OVERSCAN * res))
+    configure_cycles(scene, size, samples, seed)
     passes = render_passes(scene)
     mask = (np.abs(passes["IndexOB"][..., 0] - HAIR_PASS_INDEX) < 0.5).astype(np.float32)
-    return HairSource(to_display(passes["Combined"][..., :3]), mask)
+    rgb = to_display(passes["Combined"][..., :3])
+    if view == "portrait":
+        return HairSource(rgb, mask)
+    square = hair_square(mask, REGION_SHARE, 1.0 / REGION_OVERSCAN)
+    x, y, side = square if square is not None else (0, 0, size)  # hair too thin for a square: the frame, masked
+    rgb, mask = rgb[y:y + side, x:x + side], mask[y:y + side, x:x + side]
+    return HairSource(resize(rgb, res, res), (resize(mask, res, res) > 0.5).astype(np.float32))
 
 
 # A photo refined as its own source: the stage recolours the photo's hair towards the swatch, so with intensity 0 or

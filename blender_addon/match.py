@@ -27,8 +27,9 @@ from vto_core.errors import VtoError
 from vto_core.inference import EncoderSession
 from vto_core.specs import get_spec
 
-from .reference import at_size, load_reference
-from .refine import OBJECTIVES, SIGMA, SIGMA_FROM_MEAN, refine_by_render
+from .photo_fit import NO_REGION, QUALITIES, fit_photo_fast, iter_fit_photo, photo_values
+from .reference import at_size, read_reference
+from .refine import OBJECTIVES, SIGMA, SIGMA_FROM_MEAN, drain, refine_by_render
 
 NO_SOURCE = "no source for the reference (--source): refinement skipped, the encoder's estimate stands"
 NO_IMITATOR = ("--refine imitator:K needs torch and the training package, which this Python lacks (e.g. inside "
@@ -99,30 +100,69 @@ def photo_source(image_path: Path) -> str | None:
 
 def match(model: str, image_path: str, source=None, refine: str = "none", imitator: str | None = None,
           res: int | None = None, samples: int = DEFAULT_SAMPLES, seed: int = 0, objective: str = "mse",
-          start_at: str = "encoder", imitator_refine=None, lighting: str | None = None) -> dict:
+          start_at: str = "encoder", imitator_refine=None, lighting: str | None = None, quality: str = "fast",
+          crop=None, mask_path: str | None = None, find_lips: bool = True) -> dict:
     """Estimate (and refine) the parameters of `image_path`.
 
-    Returns {'renderer', 'params': all parameters (raw values), 'refined', 'note', 'encoder_ms'} and, when
-    refined, 'method', 'refine_ms', 'loss_start', 'loss' and 'renders' or 'steps'. res: the render size of render
-    search (default: the reference's own, which must then be square). start_at: refinement starts at the 'encoder'
-    estimate or the 'mean' preset. imitator_refine: (spec, imitator run, source, reference, start unit, steps, samples,
-    seed, lighting) -> a refinement with .unit, .loss, .start_loss, .steps; needed by imitator:K (pipeline.match gives it).
-    lighting: the default lips scene's, for a lipstick --source (None: its default).
+    The reference is made ready as the panel makes it (blender_addon.reference.read_reference): a crop, a mask, or
+    for lipstick the lips found in the photo; a hair photo's '<name>_mask' beside it is its mask. With a `source`
+    the image is a render of that source and is read whole.
+    quality: "fast" (the encoder), "better" or "best" (the photo fit of blender_addon.photo_fit, no source needed).
+    refine: against a known source instead ('render:B', 'cma:B', 'imitator:K').
+    Returns {'renderer', 'params': all parameters (raw values), 'refined', 'note', 'notes', 'encoder_ms'} (a photo:
+    also 'fast_ms', the encoder's estimate fitted through the colour imitator) and, when
+    refined, 'method', 'refine_ms', 'renders' or 'steps' (and 'loss_start', 'loss' for refine). res: the render size
+    of render search (default: the reference's own, which must then be square). start_at: refinement starts at the
+    'encoder' estimate or the 'mean' preset. imitator_refine: (spec, imitator run, source, reference, start unit, steps,
+    samples, seed, lighting) -> a refinement with .unit, .loss, .start_loss, .steps; needed by imitator:K
+    (pipeline.match gives it). lighting: the default lips scene's, for a lipstick --source (None: its default).
     """
     kind, amount = parse_refine(refine)
+    quality = str(quality).upper()
+    if quality not in QUALITIES:
+        raise VtoError(f"--quality takes fast, better or best, got '{quality.lower()}'")
+    if quality != "FAST" and kind != "none":
+        raise VtoError("--quality better/best fits the photo's colour without its source; --refine refines against a "
+                       "known --source: choose one")
     if kind == "imitator" and not imitator:
         raise VtoError("--refine imitator:K needs --imitator RUN (the imitator run the encoder was trained with)")
     if start_at not in ("encoder", "mean"):
         raise VtoError(f"--start takes encoder or mean, got '{start_at}'")
     if objective not in OBJECTIVES:
         raise VtoError(f"--objective takes {' or '.join(OBJECTIVES)}, got '{objective}'")
-    reference = load_reference(image_path)
     session = EncoderSession(model)
     spec = session.spec
+    if source is None and spec.renderer == "hair" and mask_path is None and crop is None:
+        beside = photo_source(Path(image_path))
+        if beside:
+            from .hair import mask_path_for
+
+            mask_path = str(mask_path_for(Path(image_path)))
+    settings = {"image_path": image_path, "crop": crop, "mask_path": mask_path,
+                "find_lips": find_lips and source is None}
+    prepared = read_reference(spec.renderer, settings)
     started = time.perf_counter()
-    values = session.predict(reference)[0]
-    result = {"renderer": spec.renderer, "params": values, "refined": False, "note": "",
+    values = session.predict(prepared.image)[0]
+    result = {"renderer": spec.renderer, "params": values, "refined": False, "note": "", "notes": prepared.notes,
               "encoder_ms": 1000 * (time.perf_counter() - started)}
+    if prepared.lips is not None:
+        result["lips"] = {"how": prepared.lips.how, "box": list(prepared.lips.box), "faces": prepared.lips.faces}
+    if source is None and prepared.region is not None:  # a photo: its colour, through the colour imitator
+        fast, note = fit_photo_fast(spec, prepared.region, {k: values[k] for k in spec.modelled})
+        result["notes"] = prepared.notes + ([note] if note else [])
+        result["params"] = values = spec.full_values(photo_values(spec, fast))
+        result["fast_ms"] = 1000 * (time.perf_counter() - started)  # the encoder and the colour imitator's fit
+    if quality != "FAST":
+        if prepared.region is None:
+            raise VtoError(f"--quality {quality.lower()} {NO_REGION} (not --whole-image)")
+        started = time.perf_counter()
+        renders = []
+        fitted = drain(iter_fit_photo(spec, prepared.region, values, quality, samples=samples),
+                       renders.append)
+        result.update(params=spec.full_values(photo_values(spec, fitted)), refined=True, method=quality.lower(),
+                      renders=renders[-1],
+                      refine_ms=1000 * (time.perf_counter() - started))
+        return result
     if kind == "none":
         return result
     if source is None and spec.renderer == "hair":
@@ -130,6 +170,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
     if source is None:
         result["note"] = NO_SOURCE
         return result
+    reference = prepared.whole
     if start_at == "mean":
         from vto_core.presets import load_presets, preset_matrix
 
@@ -166,8 +207,9 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
 
 
 def cmd_match(argv: list[str], imitator_refine=None) -> int:
-    """vto match --model M --image IMG [--source S] [--refine none|imitator:K|render:B] [--imitator RUN] --out-params F,
-    or vto match --material NAME --image IMG [--model M] [--crop x,y,w,h] [--mask IMG] [--blend FILE] --save.
+    """vto match --model M --image IMG [--quality fast|better|best] [--crop x,y,w,h] [--mask IMG] [--whole-image]
+    [--source S --refine none|imitator:K|render:B|cma:B] [--imitator RUN] --out-params F,
+    or vto match --material NAME --image IMG [--model M] [--quality Q] [--crop] [--mask] [--blend FILE] --save.
 
     The same function serves `blender -b [FILE] -c vto match`; there imitator:K ends in one line (no torch). The
     console script runs it through pipeline.match, which passes `imitator_refine` (match's).
@@ -198,13 +240,18 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
                                                          "inputs (of --blend FILE, or the open .blend)")
     parser.add_argument("--blend", default=None, help="with --material: the .blend to open (default: the open one)")
     parser.add_argument("--save", action="store_true", help="with --material: save the .blend (atomically)")
-    parser.add_argument("--crop", default=None, help="with --material: x,y,w,h of the reference to use, from the "
-                                                     "top-left, in pixels or fractions")
-    parser.add_argument("--mask", default=None, help="with --material: a mask image of the lips; the reference is "
-                                                     "framed around them as the default scene frames its lips")
+    parser.add_argument("--quality", default="fast", choices=["fast", "better", "best"],
+                        help="the panel's choice: fast (the encoder, milliseconds), better or best (its estimate "
+                             "fitted through the renderer to the colour of the photo's lips or hair; seconds)")
+    parser.add_argument("--crop", default=None, help="x,y,w,h of the reference to use, from the top-left, in pixels "
+                                                     "or fractions")
+    parser.add_argument("--mask", default=None, help="a mask image: of the lips (the reference is framed around them "
+                                                     "as the default scene frames its lips) or of the hair")
+    parser.add_argument("--whole-image", action="store_true",
+                        help="lipstick: take the image (or crop) as it is instead of finding the lips in it")
     args = parser.parse_args(argv)
     if args.material is None:
-        for option in ("blend", "save", "crop", "mask"):
+        for option in ("blend", "save"):
             if getattr(args, option):
                 raise VtoError(f"--{option} goes with --material NAME")
         if args.out_params is None or args.model is None:
@@ -218,10 +265,13 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
         return match_material_cli(args, out)
     if args.res is not None and not 8 <= args.res <= 4096 or not 1 <= args.samples <= 65536:
         raise VtoError(f"--res must be in [8, 4096] and --samples in [1, 65536], got {args.res} and {args.samples}")
+    mask = os.path.abspath(args.mask) if args.mask else None
     result = match(args.model, args.image, args.source, args.refine, args.imitator, args.res, args.samples, args.seed,
-                   args.objective, args.start, imitator_refine, args.lighting)
-    if result["note"]:
-        print(f"vto match: {result['note']}", file=sys.stderr)
+                   args.objective, args.start, imitator_refine, args.lighting, args.quality, parse_crop(args.crop),
+                   mask, not args.whole_image)
+    for note in [result["note"], *result["notes"]]:
+        if note:
+            print(f"vto match: {note}", file=sys.stderr)
     temporary = out.with_name(out.name + ".tmp")
     temporary.write_text(json.dumps({"renderer": result["renderer"], "params": result["params"]}, indent=1) + "\n")
     temporary.replace(out)
@@ -245,9 +295,8 @@ def parse_crop(text: str | None) -> tuple[float, ...] | None:
 def match_material_cli(args, out: Path | None) -> int:
     """`vto match --material NAME --save`: the operator's code (blender_addon.apply), then an atomic save."""
     if args.refine != "none":
-        from .apply import NO_LIPSTICK_SOURCE
-
-        raise VtoError(f"--material takes the encoder's estimate only (--refine none): {NO_LIPSTICK_SOURCE}")
+        raise VtoError("--material takes --quality (the panel's choice), not --refine: the material's photo has no "
+                       "source to render")
     crop = parse_crop(args.crop)
     import bpy
 
@@ -257,10 +306,13 @@ def match_material_cli(args, out: Path | None) -> int:
     open_blend(args.blend)
     blend = bpy.data.filepath
     settings = {"image_path": os.path.abspath(args.image), "model_path": os.path.abspath(args.model) if args.model
-                else "", "crop": crop, "mask_path": os.path.abspath(args.mask) if args.mask else "", "quality": "FAST"}
+                else "", "crop": crop, "mask_path": os.path.abspath(args.mask) if args.mask else "",
+                "quality": args.quality.upper(), "find_lips": not args.whole_image}
     result = match_into_material(args.material, settings)
     for warning in result["warnings"]:
         print(f"vto match: warning: {warning}", file=sys.stderr)
+    for note in result["notes"]:
+        print(f"vto match: {note}", file=sys.stderr)
     save_blend_atomic(blend)
     if out is not None:
         temporary = out.with_name(out.name + ".tmp")

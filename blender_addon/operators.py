@@ -6,7 +6,7 @@ from __future__ import annotations
 import time
 
 import bpy
-from bpy.props import EnumProperty, FloatVectorProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, StringProperty
 
 from vto_core.errors import VtoError
 
@@ -77,6 +77,7 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
                               description="x, y, w, h from the top-left, pixels or fractions")
     model_path: StringProperty(name="Model", subtype="FILE_PATH", description="Encoder (.onnx); default: the panel's")
     quality: EnumProperty(name="Quality", items=QUALITY_ITEMS, default="FAST")
+    find_lips: BoolProperty(name="Find Lips", default=True, description="Find the lips in the photo (lipstick)")
 
     def settings(self, stored) -> dict:
         """The stored panel settings (if any), overridden by whatever was passed to this call."""
@@ -87,7 +88,7 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
             settings.pop("image_name", None)
             settings["image_path" if passed("image_path") else "image_name"] = (
                 self.image_path if passed("image_path") else self.image_name)
-        for name in ("mask_path", "model_path", "quality"):
+        for name in ("mask_path", "model_path", "quality", "find_lips"):
             if passed(name):
                 settings[name] = getattr(self, name)
         if passed("crop"):
@@ -124,6 +125,8 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
         result = job.finish(values)
         for warning in job.warnings:
             self.report({"WARNING"}, warning)
+        for note in job.notes:
+            self.report({"INFO"}, note)
         if stored is not None:
             remember(stored, job.renderer, result["values"], result["model"], result["seconds"])
         self.report({"INFO"}, f"matched {job.where} in {1000 * result['seconds']:.0f} ms: "

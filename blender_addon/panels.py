@@ -11,6 +11,7 @@ import bpy
 from vto_core.specs import get_spec
 
 from . import apply, thumbnail, warmup
+from .photo_fit import FIT_QUALITY, FIT_SECONDS, QUALITIES
 from .operators import VTO_OT_add_hair_compositor, VTO_OT_add_lipstick_material, VTO_OT_match_from_photo
 from .preferences import preference_model
 
@@ -24,41 +25,49 @@ def split_column(layout):
     return layout.column()
 
 
-def draw_reference(column, props, preview_name: str) -> None:
-    """Reference (a file or an image of the .blend), its thumbnail with the crop outlined, crop and mask."""
+def draw_reference(column, props, preview_name: str, renderer: str) -> None:
+    """Reference (a file or an image of the .blend), its thumbnail with the crop and the lips found outlined, crop,
+    mask and (lipstick) whether to find the lips."""
     column.prop(props, "image" if props.use_datablock else "image_path", text="Reference")
     column.prop(props, "use_datablock", text="Image in .blend")
-    icon_id, why = thumbnail.icon(props, preview_name)
+    icon_id, why = thumbnail.icon(props, preview_name, renderer)
     if icon_id:
         column.template_icon(icon_value=icon_id, scale=THUMBNAIL_SCALE)
-    elif why and why != "no image chosen":
-        column.label(text=why, icon="ERROR")
+    if why and why != "no image chosen":
+        column.label(text=why, icon="INFO" if icon_id and not why.startswith("no lips") else "ERROR")
     column.prop(props, "use_crop", text="Part of the Image")
     if props.use_crop:
         box = column.column(align=True)
         for index, name in enumerate(("X", "Y", "Width", "Height")):
             box.prop(props, "crop", index=index, text=name)
     column.prop(props, "mask_path", text="Mask")
+    if renderer == "lipstick":
+        row = column.row()
+        row.active = not props.mask_path  # a mask says where the lips are
+        row.prop(props, "find_lips")
 
 
 def draw_quality(column, props, renderer: str) -> None:
-    """Fast / Better / Best, with the reason in plain words when Better and Best cannot run."""
-    refinable = renderer == "hair"
+    """Fast / Better / Best, and what the choice costs."""
     split = column.split(factor=0.4)  # the label column of property split, which prop_enum does not follow
     label = split.row()
     label.alignment = "RIGHT"
     label.label(text="Quality")
     row = split.row(align=True)
     row.use_property_split = False
-    row.prop_enum(props, "quality", "FAST")
-    for value in ("BETTER", "BEST"):
-        cell = row.row(align=True)
-        cell.enabled = refinable
-        cell.prop_enum(props, "quality", value)
-    if not refinable:
-        column.label(text="Better, Best: for hair photos only", icon="INFO")
-    elif props.quality != "FAST" and not props.mask_path:
-        column.label(text="Better, Best: choose the hair mask", icon="ERROR")
+    for value in QUALITIES:
+        row.prop_enum(props, "quality", value)
+    column.label(text=quality_cost(renderer, props.quality), icon="TIME")
+    if renderer == "lipstick" and props.quality != "FAST" and not (props.find_lips or props.mask_path):
+        column.label(text="Better, Best: find the lips or give a mask", icon="ERROR")
+
+
+def quality_cost(renderer: str, quality: str) -> str:
+    """'Fast: no render, milliseconds' or 'Better: 25 renders, about 2 s' (FIT_QUALITY, FIT_SECONDS)."""
+    if quality == "FAST":
+        return "Fast: no render, milliseconds"
+    renders = FIT_QUALITY[renderer][quality][1]
+    return f"{quality.title()}: {renders} renders, about {FIT_SECONDS[renderer][quality]:g} s"
 
 
 def draw_estimate(layout, props) -> None:
@@ -78,7 +87,7 @@ def draw_estimate(layout, props) -> None:
 def draw_match(layout, context, props, renderer: str, target: str, material_name: str = "") -> None:
     """The shared body: reference, crop, mask, model, quality, Match, and the values last written."""
     column = split_column(layout)
-    draw_reference(column, props, f"{target}:{material_name}")
+    draw_reference(column, props, f"{target}:{material_name}", renderer)
     preference = preference_model(context, renderer)
     model = apply.resolve_model(renderer, props.model_path, preference)
     try:
@@ -101,8 +110,6 @@ def draw_match(layout, context, props, renderer: str, target: str, material_name
     operator.target = target
     if material_name:
         operator.material = material_name
-    if renderer != "hair":
-        operator.quality = "FAST"
     if props.last_estimate:
         draw_estimate(layout, props)
 

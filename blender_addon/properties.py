@@ -8,9 +8,11 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, PointerProperty, StringProperty
 
 QUALITY_ITEMS = [
-    ("FAST", "Fast", "The encoder's estimate alone (milliseconds)"),
-    ("BETTER", "Better", "The estimate refined by 25 renders of the reference's own source (render search)"),
-    ("BEST", "Best", "The estimate refined by 100 renders of the reference's own source (render search)"),
+    ("FAST", "Fast", "The encoder's estimate, fitted to the photo's colour through the colour imitator "
+                     "(milliseconds, no render)"),
+    ("BETTER", "Better", "The estimate fitted through the renderer to the colour of the photo's lips or hair (a "
+                         "few seconds for lips, about one for hair)"),
+    ("BEST", "Best", "As Better, on more default scenes with more renders (several seconds)"),
 ]
 
 
@@ -22,14 +24,18 @@ class VTO_PG_match_settings(bpy.types.PropertyGroup):
     image_path: StringProperty(name="Reference", subtype="FILE_PATH", description="The reference photo")
     image: PointerProperty(name="Reference Image", type=bpy.types.Image,
                            description="An image already in the .blend as the reference")
+    find_lips: BoolProperty(name="Find Lips", default=True,
+                            description="Find the lips in the photo with a face model (a portrait, or a close-up of "
+                                        "lips); off: the image or crop is taken as it is")
     use_crop: BoolProperty(name="Crop", default=False, description="Estimate from a part of the reference only")
     crop: FloatVectorProperty(name="Crop", size=4, min=0.0, default=(0.0, 0.0, 1.0, 1.0),
                               description="x, y, width, height from the top-left corner: in pixels, or fractions of "
                                           "the image when all four are at most 1")
     mask_path: StringProperty(name="Mask", subtype="FILE_PATH",
                               description="Optional mask image. Lipstick: white = the lips, the reference is "
-                                          "framed around them as the training renders frame lips. Hair: white = the hair, which makes Better and Best "
-                                          "possible (the photo is its own source)")
+                                          "framed around them as the training renders frame lips (instead of "
+                                          "finding them). Hair: white = the hair (the encoder reads its largest "
+                                          "square, Better and Best all of it)")
     model_path: StringProperty(name="Model", subtype="FILE_PATH",
                                description="An encoder (.onnx) for this material only; empty: the add-on "
                                            "preferences' model, else the shipped one")
@@ -41,7 +47,7 @@ class VTO_PG_match_settings(bpy.types.PropertyGroup):
 def settings_dict(props: VTO_PG_match_settings) -> dict:
     """The panel's settings as the plain dict blender_addon.apply takes."""
     settings = {"quality": props.quality, "model_path": props.model_path, "mask_path": props.mask_path,
-                "crop": tuple(props.crop) if props.use_crop else None}
+                "crop": tuple(props.crop) if props.use_crop else None, "find_lips": props.find_lips}
     if props.use_datablock:
         settings["image_name"] = props.image.name if props.image else ""
     else:

@@ -1,4 +1,5 @@
-"""The reference image of a match: a file or an image datablock, checked, with an optional crop or mask.
+"""The reference image of a match: a file or an image datablock, checked, with an optional crop or mask, made ready
+for a renderer: lips found and framed, a square of hair cut.
 
 Shared by `vto match`, the panel's operator (apply.py) and `vto batch`; bpy is imported only for datablocks and
 Blender-relative ('//') paths.
@@ -9,6 +10,8 @@ from __future__ import annotations
 import math
 import os
 import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -20,6 +23,9 @@ MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that
 # at 64 px: 0.73-0.84). A lips mask is framed alike, so the encoder sees lips at the scale it was trained on: the
 # mask's own box, stretched to a square, gave 1.7-2.5x the colour error (benchmarks/results/mask_crop.md).
 LIPS_WIDTH_SHARE = 0.78
+MODELS = Path(__file__).parent / "models"
+FACE_DETECTOR, FACE_LANDMARKS = "face_detector.onnx", "face_landmarks.onnx"  # blender_addon/models/face_locator.md
+HAIR_SQUARE_SHARE = 0.95  # the hair encoder reads the largest square of a hair mask that is this share hair
 
 
 def absolute_path(path: str) -> str:
@@ -130,26 +136,101 @@ def lips_frame(mask: np.ndarray) -> tuple[int, int, int, int]:
     return x, y, side, side
 
 
-def read_reference(settings: dict) -> tuple[np.ndarray, np.ndarray | None]:
-    """The reference (H, W, 3) in [0, 1] after the crop, and its mask (H, W) or None; one-line errors."""
+def read_image_setting(settings: dict) -> np.ndarray:
+    """The reference the settings name (a file, or an image datablock), whole: (H, W, 3) in [0, 1]."""
     if settings.get("image_path"):
-        reference = load_reference(absolute_path(settings["image_path"]))
-    elif settings.get("image_name"):
+        return load_reference(absolute_path(settings["image_path"]))
+    if settings.get("image_name"):
         import bpy
 
         image = bpy.data.images.get(settings["image_name"])
         if image is None:
             raise VtoError(f"no image '{settings['image_name']}' in this .blend")
-        reference = datablock_pixels(image)
-    else:
-        raise VtoError("no reference image: choose a file or an image of this .blend")
-    mask = read_mask(settings["mask_path"], reference.shape[:2]) if settings.get("mask_path") else None
-    crop = settings.get("crop")
-    if crop is not None:
-        x, y, w, h = crop_box(crop, reference.shape[1], reference.shape[0])
-    elif mask is not None and settings.get("crop_to_mask", True):
-        x, y, w, h = lips_frame(mask)
-    else:
-        return reference, mask
-    reference = np.ascontiguousarray(reference[y:y + h, x:x + w])
-    return reference, None if mask is None else np.ascontiguousarray(mask[y:y + h, x:x + w])
+        return datablock_pixels(image)
+    raise VtoError("no reference image: choose a file or an image of this .blend")
+
+
+@dataclass
+class Reference:
+    """A reference made ready for a renderer: what the encoder reads, and the region the material covers.
+
+    image: (H, W, 3) what the encoder reads (lips framed as the default scene frames them; a square of hair).
+    region: (rgb (h, w, 3), mask (h, w)) the pixels of the lips or hair, for a fit of their colour statistics
+    (blender_addon.photo_fit); None when unknown. lips: what the lips locator found, in the coordinates of `whole`
+    (or None). box: (x, y, w, h) of `image` inside `whole`. notes: what the user should be told.
+    """
+
+    image: np.ndarray
+    region: tuple[np.ndarray, np.ndarray] | None
+    whole: np.ndarray
+    box: tuple[int, int, int, int]
+    lips: object = None
+    notes: list[str] = field(default_factory=list)
+
+
+def locate_lips(image: np.ndarray):
+    """vto_core.lips_locator.LipsFound for (H, W, 3) with the shipped face models (loaded once); VtoError 'no lips
+    found ...' where there are none."""
+    from vto_core.lips_locator import cached_locator
+
+    return cached_locator(MODELS / FACE_DETECTOR, MODELS / FACE_LANDMARKS).locate(image)
+
+
+def _cut(image: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    x, y, w, h = box
+    return np.ascontiguousarray(image[y:y + h, x:x + w])
+
+
+def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None, find_lips: bool = True) -> Reference:
+    """The lips of a photo, framed for the encoder: a crop, a mask (framed by lips_frame), or, with neither, the lips
+    the locator finds (framed likewise). find_lips=False takes the whole image (or the crop) as it is. A crop in which
+    the locator finds no lips is taken as the artist drew it: the lips where the default scene frames them."""
+    height, width = whole.shape[:2]
+    box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
+    notes, lips = [], None
+    if mask is None and find_lips:
+        try:
+            lips = locate_lips(_cut(whole, box))
+        except VtoError:
+            if crop is None:
+                raise
+            from vto_core.lips_locator import DEFAULT_LENS, close_up
+
+            lips = close_up((box[3], box[2]), DEFAULT_LENS, 0.0, "no lips found in the crop: the crop is taken as the "
+                            "lips, framed as the default scene frames them")
+        mask = np.zeros((height, width), np.float32)
+        mask[box[1]:box[1] + box[3], box[0]:box[0] + box[2]] = lips.mask
+        notes += [lips.note] if lips.note else []
+    if crop is None and mask is not None:
+        box = lips_frame(mask)
+    region = None if mask is None else (_cut(whole, box), _cut(mask, box))
+    return Reference(_cut(whole, box), region, whole, box, lips, notes)
+
+
+def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None) -> Reference:
+    """Hair as the hair encoder reads it: the crop (all hair), or with a hair mask the largest square of it
+    (vto_core.hair.hair_square); the region is the masked hair of the crop (or the whole crop)."""
+    from vto_core.hair import hair_square
+
+    height, width = whole.shape[:2]
+    box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
+    rgb = _cut(whole, box)
+    mask = np.ones(rgb.shape[:2], np.float32) if mask is None else _cut(mask, box)
+    if not mask.any():
+        raise VtoError("the hair mask holds no hair inside the crop")
+    square = hair_square(mask, HAIR_SQUARE_SHARE)
+    if square is None:
+        raise VtoError(f"the hair mask holds no {MIN_SIZE}x{MIN_SIZE} px square of hair for the encoder to read: "
+                       "paint more of the hair, or crop a patch of it")
+    x, y, side = square
+    inner = (box[0] + x, box[1] + y, side, side)
+    return Reference(_cut(whole, inner), (rgb, mask), whole, inner)
+
+
+def read_reference(renderer: str, settings: dict) -> Reference:
+    """The settings' reference made ready for `renderer` (image, crop, mask; lipstick: find_lips); one-line errors."""
+    whole = read_image_setting(settings)
+    mask = read_mask(settings["mask_path"], whole.shape[:2]) if settings.get("mask_path") else None
+    if renderer == "hair":
+        return hair_reference(whole, settings.get("crop"), mask)
+    return lips_reference(whole, settings.get("crop"), mask, settings.get("find_lips", True))

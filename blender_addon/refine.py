@@ -44,12 +44,8 @@ def refine_by_render(render_unit: Callable[[np.ndarray], np.ndarray], reference:
                      budget: int, seed: int = 0, wraps=None, objective: str = "mse", sigma: float = SIGMA,
                      held: dict[int, float] | None = None, search: str = "fit") -> Refined:
     """Refinement to the end: see iter_refine_by_render."""
-    steps = iter_refine_by_render(render_unit, reference, start, budget, seed, wraps, objective, sigma, held, search)
-    while True:
-        try:
-            next(steps)
-        except StopIteration as done:
-            return done.value
+    return drain(iter_refine_by_render(render_unit, reference, start, budget, seed, wraps, objective, sigma, held,
+                                       search))
 
 
 def iter_refine_by_render(render_unit: Callable[[np.ndarray], np.ndarray], reference: np.ndarray, start: np.ndarray,
@@ -191,3 +187,14 @@ def iter_cma_search(render_unit: Callable[[np.ndarray], np.ndarray], reference: 
         if losses[k] < best_loss:
             best_unit, best_loss = candidates[k], losses[k]
     return Refined(best_unit, float(best_loss), float(start_loss), renders)
+
+
+def drain(steps, progress: Callable[[int], None] | None = None):
+    """Run a generator to its end, passing each yielded count to `progress`; its return value."""
+    while True:
+        try:
+            done = next(steps)
+        except StopIteration as finished:
+            return finished.value
+        if progress is not None:
+            progress(done)

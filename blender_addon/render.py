@@ -60,10 +60,13 @@ def set_render_quality(scene: bpy.types.Scene, samples: int, seed: int) -> None:
     cycles.device = "CPU"
     cycles.samples = samples
     cycles.use_adaptive_sampling = False
-    cycles.use_denoising = True
-    cycles.denoiser = "OPENIMAGEDENOISE"
-    cycles.denoising_input_passes = "RGB_ALBEDO_NORMAL"
-    cycles.denoising_prefilter = "FAST"
+    try:
+        cycles.denoiser = "OPENIMAGEDENOISE"
+        cycles.use_denoising = True
+        cycles.denoising_input_passes = "RGB_ALBEDO_NORMAL"
+        cycles.denoising_prefilter = "FAST"
+    except TypeError:  # a Blender built without OpenImageDenoise (Debian's 4.3): its renders stay noisy
+        cycles.use_denoising = False
     cycles.denoising_use_gpu = False
     cycles.seed = seed
     cycles.use_animated_seed = False

@@ -10,7 +10,8 @@ import math
 import bpy
 import numpy as np
 
-from vto_core.colour import srgb_to_linear
+from vto_core.colour import hsv_to_rgb, srgb_to_linear
+from vto_core.errors import VtoError
 
 from .compat import enable_nodes
 from .lighting import build_hdri_world, randomise_hdri
@@ -22,37 +23,73 @@ HEAD_OBJECT = "VTO Head"
 HAIR_MATERIAL = "VTO Hair Material"
 HEAD_MATERIAL = "VTO Head Material"
 HAIR_PASS_INDEX = 1
-STRANDS, POINTS_PER_STRAND = 3000, 8
+STRANDS, POINTS_PER_STRAND = 20000, 16
 HEAD_RADIUS = 1.0
 RADIAL_ROUGHNESS = 0.8
-STRAND_RADIUS = 0.014  # thick enough that 3,000 strands hide the scalp at 64-256 px
+# Strand radius at the root and the tip, in head radii: thin enough that single strands and clumps read as hair at
+# 128-512 px, thick enough that 20,000 of them hide the scalp.
+ROOT_RADIUS, TIP_RADIUS = 0.005, 0.002
+VIEWS = ("region", "portrait")  # a close-up that hair fills (the default source: what an artist gives) | the whole head
+
+
+def _roots(rng: np.random.Generator, count: int, hairline: float) -> tuple[np.ndarray, np.ndarray]:
+    """(azimuth, polar) of `count` roots on the scalp: the crown down to 110 degrees, the face kept free below a
+    hairline `hairline` radians above it. The camera of the portrait view looks from -y (azimuth -pi/2)."""
+    azimuth = rng.uniform(0, 2 * math.pi, count)
+    facing = np.cos(azimuth + math.pi / 2)  # 1 at the face, -1 at the back
+    max_polar = np.radians(110) - hairline * np.clip(facing, 0, 1)
+    polar = np.arccos(1 - rng.random(count) * (1 - np.cos(max_polar)))
+    return azimuth, polar
+
+
+def _combed(azimuth: np.ndarray, polar: np.ndarray, shell: np.ndarray, lengths: np.ndarray, parting: float):
+    """Strands (n, POINTS_PER_STRAND, 3) combed over a shell of radius `shell` (n,) from their roots, then falling
+    straight down; front strands go back over the crown so the face stays clear. Also the azimuth each point lies at
+    (n, POINTS_PER_STRAND)."""
+    arc = np.linspace(0, 1, POINTS_PER_STRAND)[None, :] * lengths[:, None]
+    from_face = (azimuth + math.pi / 2 + math.pi) % (2 * math.pi) - math.pi  # 0 at the face
+    front = (np.abs(from_face) < np.radians(80 + 10 * parting))[:, None]
+    radius = shell[:, None]
+    signed = np.where(front, polar[:, None] - arc / radius, polar[:, None] + arc / radius)  # < 0: over the crown
+    phi = azimuth[:, None] + math.pi * (signed < 0)
+    limit = np.radians(100)  # past 100 degrees from the crown every strand falls straight down
+    over = np.minimum(np.abs(signed), limit)
+    fall = np.maximum(arc - np.where(front, polar[:, None] + limit, limit - polar[:, None]) * radius, 0)
+    points = np.stack([radius * np.sin(over) * np.cos(phi), radius * np.sin(over) * np.sin(phi),
+                       radius * np.cos(over) - fall], -1)
+    return points, phi
+
+
+def _unit_vectors(azimuth: np.ndarray, polar: np.ndarray) -> np.ndarray:
+    """(n, 3) directions of (azimuth, polar) pairs."""
+    return np.stack([np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)], -1)
 
 
 def strand_positions(rng: np.random.Generator) -> np.ndarray:
-    """Procedural hairstyle: strand points (STRANDS * POINTS_PER_STRAND, 3)."""
-    length = rng.uniform(1.2, 2.6)
-    parting = rng.uniform(-0.4, 0.4)
-    azimuth = rng.uniform(0, 2 * math.pi, STRANDS)
-    # The camera looks from -y: keep the face (azimuth near -pi/2) free below a hairline.
-    facing = np.cos(azimuth + math.pi / 2)  # 1 at the face, -1 at the back
-    max_polar = np.radians(110) - np.radians(rng.uniform(55, 75)) * np.clip(facing, 0, 1)
-    polar = np.arccos(1 - rng.random(STRANDS) * (1 - np.cos(max_polar)))
-    shell = HEAD_RADIUS * rng.uniform(1.03, 1.08)
-    arc = np.linspace(0, 1, POINTS_PER_STRAND)[None, :] * length * rng.uniform(0.85, 1.15, (STRANDS, 1))
-    # Front strands are combed back over the crown (the face stays clear); the others flow down the shell.
-    # Past 100 degrees from the crown every strand falls straight down.
-    from_face = (azimuth + math.pi / 2 + math.pi) % (2 * math.pi) - math.pi  # 0 at the face
-    front = (np.abs(from_face) < np.radians(80 + 10 * parting))[:, None]
-    signed = np.where(front, polar[:, None] - arc / shell, polar[:, None] + arc / shell)  # < 0: over the crown
-    phi = azimuth[:, None] + math.pi * (signed < 0)
-    limit = np.radians(100)
-    over = np.minimum(np.abs(signed), limit)
-    fall = np.maximum(arc - np.where(front, polar[:, None] + limit, limit - polar[:, None]) * shell, 0)
-    x = shell * np.sin(over) * np.cos(phi)
-    y = shell * np.sin(over) * np.sin(phi)
-    z = shell * np.cos(over) - fall
-    jitter = rng.normal(0, 0.015, (STRANDS, POINTS_PER_STRAND, 3)) * np.linspace(0, 1, POINTS_PER_STRAND)[None, :, None]
-    points = np.stack([x, y, z], -1) + jitter
+    """Procedural hairstyle: strand points (STRANDS * POINTS_PER_STRAND, 3).
+
+    Strands are combed over the head and fall below it; each drifts towards the path of its clump's guide strand
+    the further it is from its root (locks), clumps wave sideways (straight or wavy hair), and tips fray.
+    """
+    length, parting, hairline = rng.uniform(0.8, 3.0), rng.uniform(-0.4, 0.4), np.radians(rng.uniform(55, 75))
+    wave_amplitude = rng.uniform(0.02, 0.1) if rng.random() < 0.5 else 0.0
+    waves_per_length, clumps, pull = rng.uniform(2.0, 5.0), int(rng.integers(80, 400)), rng.uniform(0.4, 0.9)
+    azimuth, polar = _roots(rng, STRANDS, hairline)
+    shell = HEAD_RADIUS * (1.02 + 0.06 * rng.random(STRANDS) ** 2)  # layers: most strands lie close to the head
+    lengths = length * rng.uniform(0.8, 1.1, STRANDS)
+    points, phi = _combed(azimuth, polar, shell, lengths, parting)
+    guide_azimuth, guide_polar = _roots(rng, clumps, hairline)
+    guides, _ = _combed(guide_azimuth, guide_polar, np.full(clumps, 1.05 * HEAD_RADIUS),
+                        length * rng.uniform(0.85, 1.05, clumps), parting)
+    clump = np.argmax(_unit_vectors(azimuth, polar) @ _unit_vectors(guide_azimuth, guide_polar).T, axis=1)
+    along = np.linspace(0, 1, POINTS_PER_STRAND)[None, :, None]
+    target = guides[clump] + (points[:, :1] - guides[clump][:, :1]) * (1 - along)  # the guide's path from this root
+    points += pull * along**0.7 * (target - points)
+    phase = rng.uniform(0, 2 * math.pi, clumps)[clump][:, None]
+    wave = wave_amplitude * np.sin(2 * math.pi * waves_per_length * along[..., 0] * lengths[:, None] / length + phase)
+    sideways = np.stack([-np.sin(phi), np.cos(phi), np.zeros_like(phi)], -1)
+    points += (wave * along[..., 0] ** 0.5)[..., None] * sideways
+    points += rng.normal(0, 0.006, points.shape) * along
     return points.reshape(-1, 3).astype(np.float32)
 
 
@@ -125,7 +162,8 @@ def build_hair_scene() -> bpy.types.Scene:
     hair.scale = head.scale
     scene.collection.objects.link(hair)
     radius = curves.attributes.new("radius", "FLOAT", "POINT")
-    radius.data.foreach_set("value", np.full(STRANDS * POINTS_PER_STRAND, STRAND_RADIUS, dtype=np.float32))
+    taper = np.linspace(ROOT_RADIUS, TIP_RADIUS, POINTS_PER_STRAND, dtype=np.float32)
+    radius.data.foreach_set("value", np.tile(taper, STRANDS))
 
     camera = bpy.data.objects.new("VTO Hair Camera", bpy.data.cameras.new("VTO Hair Camera"))
     camera.data.lens = 45.0
@@ -138,26 +176,52 @@ def build_hair_scene() -> bpy.types.Scene:
     return scene
 
 
-def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
-    """Set hairstyle, hair and skin colour, lighting and camera from `source_seed`, in place."""
+def apply_source(scene: bpy.types.Scene, source_seed: int, view: str = "region") -> None:
+    """Set hairstyle, hair and skin colour, lighting and camera from `source_seed`, in place.
+
+    view: "region", a close-up from behind or the side that the hair fills (what an artist gives: hair, not a head),
+    or "portrait", the whole head from the front. Both views of a seed show the same hair under the same light.
+    """
+    if view not in VIEWS:
+        raise VtoError(f"hair view is {' or '.join(VIEWS)}, got '{view}'")
     rng = np.random.default_rng([int(source_seed), 0x4A12])
     points = strand_positions(rng)
     curves = scene.objects[HAIR_OBJECT].data
     curves.position_data.foreach_set("vector", points.reshape(-1))
     curves.update_tag()
     hair = bpy.data.materials[HAIR_MATERIAL].node_tree.nodes["Hair BSDF"]
-    hair.inputs["Melanin"].default_value = rng.uniform(0.15, 0.95)
-    hair.inputs["Melanin Redness"].default_value = rng.uniform(0.0, 0.9)
+    # Melanin 0 is unpigmented (platinum, white), 1 black; redness from ash to copper; a quarter of the heads dyed.
+    hair.inputs["Melanin"].default_value = rng.uniform(0.0, 1.0)
+    hair.inputs["Melanin Redness"].default_value = rng.uniform(0.0, 1.0)
+    dyed = rng.random() < 0.25
+    tint = hsv_to_rgb(np.array([rng.random(), rng.uniform(0.3, 0.8), 1.0]))
+    hair.inputs["Tint"].default_value = (*(srgb_to_linear(tint) if dyed else np.ones(3)), 1.0)
     hair.inputs["Roughness"].default_value = rng.uniform(0.2, 0.45)
+    hair.inputs["Random Color"].default_value = rng.uniform(0.05, 0.3)
+    hair.inputs["Random Roughness"].default_value = rng.uniform(0.0, 0.3)
     tone = np.array(SKIN_TONES[rng.integers(len(SKIN_TONES))]) / 255.0
     head = bpy.data.materials[HEAD_MATERIAL].node_tree.nodes["Principled BSDF"]
     head.inputs["Base Color"].default_value = (*srgb_to_linear(tone), 1.0)
 
     randomise_hdri(scene, rng, (0.7, 1.5))
 
-    scene.objects[HEAD_OBJECT].rotation_euler = (0.0, 0.0, rng.normal(0, 0.25))
+    turn = rng.normal(0, 0.25)
+    scene.objects[HEAD_OBJECT].rotation_euler = (0.0, 0.0, turn)
     scene.objects[HAIR_OBJECT].rotation_euler = scene.objects[HEAD_OBJECT].rotation_euler
+    front = ((rng.normal(0, 0.1), -5.2 + rng.normal(0, 0.2), 0.35 + rng.normal(0, 0.1)),
+             (math.radians(88) + rng.normal(0, 0.02), 0.0, rng.normal(0, 0.02)))
+    # The close-up: from behind or a side (up to 110 degrees from straight behind), a little above or below, aimed
+    # at a point of the hair mass.
+    azimuth = math.pi / 2 + turn + rng.uniform(-1.0, 1.0) * math.radians(110)
+    elevation, distance, aim = math.radians(rng.uniform(-5, 35)), rng.uniform(2.2, 3.0), rng.uniform(-0.4, 0.5)
+    direction = np.array([math.cos(elevation) * math.cos(azimuth), math.cos(elevation) * math.sin(azimuth),
+                          math.sin(elevation)])
+    location = np.array([0.0, 0.0, aim]) + distance * direction
     camera = scene.camera
-    camera.location = (rng.normal(0, 0.1), -5.2 + rng.normal(0, 0.2), 0.35 + rng.normal(0, 0.1))
-    camera.rotation_euler = (math.radians(88) + rng.normal(0, 0.02), 0.0, rng.normal(0, 0.02))
+    if view == "portrait":
+        camera.location, camera.rotation_euler = front
+    else:
+        camera.location = tuple(location)
+        camera.rotation_euler = (math.pi / 2 - elevation, 0.0, azimuth + math.pi / 2)
     scene["vto_source_seed"] = int(source_seed)
+    scene["vto_view"] = view

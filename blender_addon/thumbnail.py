@@ -1,4 +1,5 @@
-"""The panel's thumbnail of the reference: the picture, the crop outlined, in a preview collection (no file written)."""
+"""The panel's thumbnail of the reference: the picture, the crop or the lips found outlined, in a preview collection
+(no file written)."""
 
 from __future__ import annotations
 
@@ -6,17 +7,20 @@ import os
 
 import numpy as np
 
-from .reference import absolute_path, crop_box, datablock_pixels, load_reference, read_mask
+from vto_core.errors import VtoError
+
+from .reference import absolute_path, crop_box, datablock_pixels, lips_frame, load_reference, locate_lips, read_mask
 
 SIZE = 128  # pixels of the square thumbnail
 CROP_COLOUR = (1.0, 0.78, 0.1)  # the crop's outline: Blender's selection orange-yellow
+LIPS_COLOUR = (0.2, 0.9, 1.0)  # the lips found: cyan, apart from any lip colour
 MASK_DIM = 0.35  # outside the mask, the picture at this brightness
 
 _previews = None
 _made: dict[str, tuple] = {}  # preview name -> the settings it shows
 
 
-def source_key(props) -> tuple:
+def source_key(props, renderer: str = "lipstick") -> tuple:
     """What the thumbnail depends on: the reference (with its file's mtime), the crop and the mask."""
     def stamp(path: str):
         path = absolute_path(path) if path else ""
@@ -27,11 +31,28 @@ def source_key(props) -> tuple:
         source = ("datablock", image.name if image else "", image.is_dirty if image else False)
     else:
         source = ("file",) + stamp(props.image_path)
-    return source, tuple(round(v, 4) for v in props.crop) if props.use_crop else None, stamp(props.mask_path)
+    finding = renderer == "lipstick" and props.find_lips and not props.mask_path
+    return source, tuple(round(v, 4) for v in props.crop) if props.use_crop else None, stamp(props.mask_path), finding
 
 
-def compose(reference: np.ndarray, crop, mask: np.ndarray | None) -> np.ndarray:
-    """(SIZE, SIZE, 4) RGBA, top row first: the reference fitted and centred on grey, the mask dimmed, the crop drawn."""
+def outline(canvas: np.ndarray, points: np.ndarray, colour) -> None:
+    """Draw the closed polygon `points` (K, 2) x, y in canvas pixels onto canvas (H, W, 4), 2 px wide, in place."""
+    if len(points) < 2:
+        return
+    ends = np.roll(points, -1, axis=0)
+    steps = int(np.ceil(np.abs(ends - points).max())) + 1
+    t = np.linspace(0.0, 1.0, max(steps, 2))[:, None, None]
+    dots = (points[None] + t * (ends - points)[None]).reshape(-1, 2)
+    for dx, dy in ((0, 0), (1, 0), (0, 1), (1, 1)):
+        x = np.clip(np.round(dots[:, 0] - 0.5).astype(int) + dx, 0, canvas.shape[1] - 1)
+        y = np.clip(np.round(dots[:, 1] - 0.5).astype(int) + dy, 0, canvas.shape[0] - 1)
+        canvas[y, x, :3] = colour
+
+
+def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None) -> np.ndarray:
+    """(SIZE, SIZE, 4) RGBA, top row first: the reference fitted and centred on grey, the mask dimmed, the crop drawn,
+    and the lips found (vto_core.lips_locator.LipsFound: their outer and inner contours, and the frame the encoder
+    reads)."""
     from vto_core.imageio import resize
 
     height, width = reference.shape[:2]
@@ -44,6 +65,11 @@ def compose(reference: np.ndarray, crop, mask: np.ndarray | None) -> np.ndarray:
     canvas = np.full((SIZE, SIZE, 4), (0.16, 0.16, 0.16, 1.0), np.float32)
     top, left = (SIZE - h) // 2, (SIZE - w) // 2
     canvas[top:top + h, left:left + w, :3] = np.clip(picture, 0.0, 1.0)
+    if lips is not None:
+        for contour in (lips.outer, lips.inner):
+            outline(canvas, np.asarray(contour, np.float64) * scale + (left, top), LIPS_COLOUR)
+        if lips.how == "face":
+            crop = lips_frame(lips.mask)
     if crop is not None:
         x, y, cw, ch = crop_box(crop, width, height)
         x0, y0 = left + int(x * scale), top + int(y * scale)
@@ -56,8 +82,6 @@ def compose(reference: np.ndarray, crop, mask: np.ndarray | None) -> np.ndarray:
 
 def reference_pixels(props) -> np.ndarray:
     """The panel's reference as (H, W, 3); VtoError when there is none or it cannot be read."""
-    from vto_core.errors import VtoError
-
     if props.use_datablock:
         if props.image is None:
             raise VtoError("no image chosen")
@@ -67,18 +91,31 @@ def reference_pixels(props) -> np.ndarray:
     return load_reference(absolute_path(props.image_path))
 
 
-def icon(props, name: str) -> tuple[int, str]:
-    """(the thumbnail's icon id, "") or (0, why there is none); remade only when what it shows has changed."""
+def icon(props, name: str, renderer: str = "lipstick") -> tuple[int, str]:
+    """(the thumbnail's icon id, a note or "") or (0, why there is none); remade only when what it shows has changed.
+
+    For lipstick with Find Lips on and no mask, the lips are found as Match will find them, and outlined; the note
+    says what the locator said (e.g. which face, or that it found none)."""
     global _previews
     import bpy.utils.previews
 
-    key = source_key(props)
+    key = source_key(props, renderer)
     if _previews is not None and _made.get(name, (None,))[0] == key:
         return _made[name][1], _made[name][2]
     try:
         reference = reference_pixels(props)
         mask = read_mask(props.mask_path, reference.shape[:2]) if props.mask_path else None
-        rgba = compose(reference, tuple(props.crop) if props.use_crop else None, mask)
+        crop = tuple(props.crop) if props.use_crop else None
+        lips, note = None, ""
+        if key[-1]:
+            try:
+                lips = locate_lips(reference if crop is None else _cropped(reference, crop))
+                note = lips.note
+            except VtoError as exc:
+                note = str(exc)
+        if lips is not None and crop is not None:
+            lips = _shifted(lips, crop_box(crop, reference.shape[1], reference.shape[0]), reference.shape[:2])
+        rgba = compose(reference, crop, mask, lips)
     except Exception as exc:  # VtoError, or anything a broken file raises: the thumbnail only says why
         _made[name] = (key, 0, (str(exc).splitlines() or [""])[0])
         return 0, _made[name][2]
@@ -87,8 +124,25 @@ def icon(props, name: str) -> tuple[int, str]:
     preview = _previews.get(name) or _previews.new(name)
     preview.image_size = (SIZE, SIZE)
     preview.image_pixels_float.foreach_set(rgba[::-1].ravel())  # Blender's rows run bottom-up
-    _made[name] = (key, preview.icon_id, "")
-    return preview.icon_id, ""
+    _made[name] = (key, preview.icon_id, note)
+    return preview.icon_id, note
+
+
+def _cropped(reference: np.ndarray, crop) -> np.ndarray:
+    x, y, w, h = crop_box(crop, reference.shape[1], reference.shape[0])
+    return reference[y:y + h, x:x + w]
+
+
+def _shifted(lips, box: tuple[int, int, int, int], shape: tuple[int, int]):
+    """Lips found inside a crop `box`, moved to the whole image's coordinates (shape (H, W))."""
+    import dataclasses
+
+    x, y, w, h = box
+    mask = np.zeros(shape, np.float32)
+    mask[y:y + h, x:x + w] = lips.mask
+    offset = np.array([x, y], np.float32)
+    return dataclasses.replace(lips, mask=mask, outer=np.asarray(lips.outer) + offset,
+                               inner=np.asarray(lips.inner) + offset)
 
 
 def unregister() -> None:

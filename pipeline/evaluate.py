@@ -129,11 +129,21 @@ class PerceptualMeter:
 
 def methods(settings: EvalSettings) -> dict[str, tuple[str, int]]:
     """The compared methods in table order: name -> (kind, K or B); kinds are 'mean', 'nearest', 'encoder',
-    'imitator', 'render' (the fit) and 'cma' (refining the encoder's estimate), 'render from mean' (CMA-ES)."""
+    'imitator', 'render' (the fit) and 'cma' (refining the encoder's estimate), 'photo' (what a photo gets: Fast, the
+    reference's region statistics fitted through the colour imitator, and Better or Best, then through the renderer on
+    the default sources of blender_addon.photo_fit, never A or B),
+    'render from mean' (CMA-ES)."""
     from blender_addon.match import parse_refine
+    from blender_addon.photo_fit import QUALITIES
 
     found = {"mean preset": ("mean", 0), "nearest preset": ("nearest", 0), "encoder": ("encoder", 0)}
     for item in settings.refine:
+        if item.startswith("photo:"):  # Better / Best of a photo: the source hidden from the refinement
+            quality = item.partition(":")[2].upper()
+            if quality not in QUALITIES:
+                raise VtoError(f"--refine photo:Q takes fast, better or best, got '{item}'")
+            found[f"encoder + photo fit ({quality.lower()})"] = ("photo", quality)
+            continue
         kind, amount = parse_refine(item)
         if kind == "imitator":
             found[f"encoder + imitator {amount}"] = (kind, amount)
@@ -146,6 +156,15 @@ def methods(settings: EvalSettings) -> dict[str, tuple[str, int]]:
     for index, (name, _) in enumerate(settings.compare):
         found[name] = ("other encoder", index)
     return found
+
+
+def photo_region(renderer: str, on_a, reference: np.ndarray, source_a: int, settings: EvalSettings):
+    """(reference, its region mask): what a photo fit reads of a reference on source A (the lips or the hair)."""
+    if renderer == "hair":
+        return reference, on_a.hair.mask
+    from blender_addon.scene_lips import lips_mask
+
+    return reference, lips_mask(source_a, settings.res, settings.lighting)
 
 
 def check_settings(settings: EvalSettings) -> None:
@@ -186,7 +205,8 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
     from tqdm import tqdm
 
     from blender_addon.match import SourceRenderer
-    from blender_addon.refine import SIGMA_FROM_MEAN, refine_by_render
+    from blender_addon.photo_fit import fit_photo_fast, iter_fit_photo
+    from blender_addon.refine import SIGMA_FROM_MEAN, drain, refine_by_render
 
     from .match import imitator_inputs, imitator_refiner
 
@@ -256,6 +276,13 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
                                             settings.lighting)
                 found = refiner.refine(x, target, encoder_unit, amount)
                 spent_before = ms["encoder"]
+            elif kind == "photo":
+                region = photo_region(spec.renderer, on_a, reference, source_a, settings)
+                fast = fit_photo_fast(spec, region, {k: estimates["encoder"][k] for k in spec.modelled})[0]
+                estimates[name] = spec.full_values(fast if amount == "FAST" else drain(iter_fit_photo(
+                    spec, region, fast, amount, settings.res, settings.samples)))
+                ms[name] = ms["encoder"] + 1000 * (time.perf_counter() - started)
+                continue
             elif kind == "other encoder":
                 estimates[name] = others[amount].predict(reference)[0]
                 ms[name] = 1000 * (time.perf_counter() - started)

@@ -87,6 +87,7 @@ def blender_ext_tool() -> Path:
 
 def build_core_wheel(dest: Path) -> Path:
     """vto_core as a wheel of its own (pure Python, presets/*.json included), version from pyproject.toml."""
+    # requires-python takes in every Python of PYTHON_TAGS, not only the repository's own 3.11 (pip checks it).
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     with tempfile.TemporaryDirectory() as tmp:
         source = Path(tmp)
@@ -99,7 +100,7 @@ build-backend = "setuptools.build_meta"
 name = "vto_core"
 version = "{project["version"]}"
 description = "Core of Match from photo (no bpy): parameter specs, presets, sampling, ONNX encoder inference"
-requires-python = "{project["requires-python"]}"
+requires-python = ">=3.11"
 license = {{ text = "GPL-3.0-or-later" }}
 dependencies = ["numpy"]
 

@@ -2,6 +2,10 @@
 # The shipped encoders, as they were made: render the data, train, export, evaluate on fresh looks.
 #   scripts/train_encoder.sh lipstick|hair      -> blender_addon/models/<renderer>_encoder.onnx
 # Graphics loss (the paper's MIG baseline: no imitator at 64 px yet) with mirrored/shifted views, cosine lr.
+# Hair: regions of the default strands scene (what an artist gives: hair, not a head), 16 looks sharing each source
+# render (the stage costs ~7 ms a look, the strands ~1 s), the swatch and shine only (a photo fixes intensity and
+# blend), photo views; two datasets of 20,000 looks (1,250 sources each) trained on as one, each rendered by one
+# process (two would both render each shared source; the two datasets ran side by side instead).
 # CPU: about an hour of rendering per dataset (2 cores) and 10-50 minutes of training; add --device cuda to the
 # train line on a GPU. Environment: N (looks), STEPS (optimiser steps), WORKERS (render processes).
 # Lipstick renders the default lips scene under its default (portrait) lighting, without the source X (--no-source:
@@ -16,17 +20,28 @@ RENDERER=${1:?usage: scripts/train_encoder.sh lipstick|hair}
 case $RENDERER in
   lipstick) DATA=out/data/lip64w SEED=51 LOOKS=24000 STEPS_USED=30000 DATA_ARGS=--no-source
             VARIED=out/data/lip64r VARIED_ARGS="--seed 52 --no-source --vary gloss_roughness"
-            TRAIN_ARGS="--set photo_views=true --set mouth_views=true --set blocks=1 --set batch_norm=true" ;;
-  hair) DATA=out/data/hair64 SEED=301 LOOKS=5000 STEPS_USED=6000 DATA_ARGS= VARIED= TRAIN_ARGS= ;;
+            TRAIN_ARGS="--set photo_views=true --set mouth_views=true --set blocks=1 --set batch_norm=true" WORKERS_USED=2 ;;
+  hair) DATA=out/data/hairreg_401 SEED=401 LOOKS=20000 STEPS_USED=12000 DATA_ARGS="--looks-per-source 16"
+        VARIED=out/data/hairreg_402 VARIED_ARGS="--seed 402 --looks-per-source 16"
+        TRAIN_ARGS="--set photo_views=true --set blocks=1 --set batch_norm=true" WORKERS_USED=1 ;;
   *) echo "usage: scripts/train_encoder.sh lipstick|hair" >&2; exit 2 ;;
 esac
-$VTO dataset "$RENDERER" --out "$DATA" --n "${N:-$LOOKS}" --seed "$SEED" --workers "${WORKERS:-2}" $DATA_ARGS
+$VTO dataset "$RENDERER" --out "$DATA" --n "${N:-$LOOKS}" --seed "$SEED" --workers "${WORKERS:-$WORKERS_USED}" $DATA_ARGS
 if [ -n "$VARIED" ]; then
-  $VTO dataset "$RENDERER" --out "$VARIED" --n "${N:-$LOOKS}" --workers "${WORKERS:-2}" $VARIED_ARGS
+  $VTO dataset "$RENDERER" --out "$VARIED" --n "${N:-$LOOKS}" --workers "${WORKERS:-$WORKERS_USED}" $VARIED_ARGS
 fi
 $VTO train encoder --data $VARIED "$DATA" --out "out/runs/${RENDERER}_encoder" --set loss=graphics --set augment=true \
     $TRAIN_ARGS --set steps="${STEPS:-$STEPS_USED}" --set lr=0.001 --set schedule=cosine --set warmup_steps=100 \
     --set log_every=250 --set checkpoint_every=1000
 $VTO export --encoder "out/runs/${RENDERER}_encoder" --out "blender_addon/models/${RENDERER}_encoder.onnx"
-$VTO eval --model "blender_addon/models/${RENDERER}_encoder.onnx" --n 48 --seed 9001 --refine render:25 \
-    --out "out/eval/$RENDERER"
+# The colour imitator Fast fits a photo's colour through (blender_addon/models/colour_imitator.md): lipstick from
+# 4,000 looks with their lips masks, hair from the encoder's own looks (they hold their hair masks).
+if [ "$RENDERER" = lipstick ]; then
+  $VTO dataset lipstick --out out/data/lipstats --n 4000 --seed 611 --no-source --masks --workers "${WORKERS:-2}"
+  COLOUR_DATA=out/data/lipstats COLOUR_STEPS=6000
+else
+  COLOUR_DATA="$VARIED $DATA" COLOUR_STEPS=8000
+fi
+$VTO train colour --data $COLOUR_DATA --out "blender_addon/models/${RENDERER}_colour.onnx" --set steps=$COLOUR_STEPS
+$VTO eval --model "blender_addon/models/${RENDERER}_encoder.onnx" --n 48 --seed 9001 \
+    --refine render:25,photo:fast,photo:better,photo:best --out "out/eval/$RENDERER"

@@ -7,7 +7,7 @@ import json
 from vto_core.cli import ArgumentParser
 from vto_core.errors import VtoError
 
-from .config import EncoderConfig, ImitatorConfig, resolve_config
+from .config import ColourConfig, EncoderConfig, ImitatorConfig, resolve_config
 
 
 def _check_device(device: str) -> None:
@@ -18,18 +18,25 @@ def _check_device(device: str) -> None:
 
 
 def cmd_train(argv: list[str]) -> int:
-    """vto train imitator|encoder --data DIR [DIR ...] [--imitator RUN] --out RUN: train on one or more datasets."""
-    parser = ArgumentParser(prog="vto train", description="train the imitator or the encoder (paper 5, 6.2)")
-    parser.add_argument("kind", choices=["imitator", "encoder"])
+    """vto train imitator|encoder|colour --data DIR [DIR ...] [--imitator RUN] --out RUN: train on one or more
+    datasets (colour: the colour imitator, written straight to --out FILE.onnx)."""
+    parser = ArgumentParser(prog="vto train", description="train the imitator, the encoder (paper 5, 6.2) or the "
+                                                          "colour imitator (what Fast fits a photo's colour through)")
+    parser.add_argument("kind", choices=["imitator", "encoder", "colour"])
     parser.add_argument("--data", required=True, nargs="+", metavar="DIR",
                         help="a `vto dataset` folder, or several of one spec read as one (held out: the last's tail)")
-    parser.add_argument("--out", required=True, help="run folder (resumed if it holds a checkpoint)")
+    parser.add_argument("--out", required=True, help="run folder (resumed if it holds a checkpoint); colour: the .onnx")
     parser.add_argument("--imitator", default=None, help="encoder: the imitator run for the rendering loss")
     parser.add_argument("--config", default=None, help="JSON file of settings")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override one setting")
     parser.add_argument("--device", default=None, help="cpu (default) or cuda")
     args = parser.parse_args(argv)
     overrides = args.set + ([f"device={args.device}"] if args.device else [])
+    if args.kind == "colour":
+        from .train_colour import train_colour
+
+        print(json.dumps(train_colour(args.data, args.out, resolve_config(ColourConfig, args.config, args.set))))
+        return 0
     if args.kind == "imitator":
         from .train_imitator import train_imitator
 

@@ -77,6 +77,20 @@ class EncoderConfig(CommonConfig):
     mouth_views: bool = False  # lips: open mouths with teeth and skin texture (data.open_mouths, data.skin_texture)
 
 
+@dataclass
+class ColourConfig:
+    """The colour imitator (training/train_colour.py): an MLP of `width` from parameters to region statistics."""
+
+    steps: int = 4000
+    batch_size: int = 256
+    lr: float = 3e-3  # cosine decay to 0
+    width: int = 128
+    val_fraction: float = 0.1
+    limit: int = 0  # looks read from each dataset (0: all)
+    skin: bool = False  # lipstick: also read the skin around the lips (the imitator is then skin-conditioned)
+    seed: int = 0
+
+
 # Named settings for --config NAME (a JSON file path works too). The paper's schedule is the defaults' optimiser
 # run for 300 epochs; "cpu" is measured in benchmarks/results/training.md (bench_training --schedules).
 PRESETS = {
@@ -154,14 +168,14 @@ def validate(config) -> None:
     """Ranges that would otherwise fail deep inside a run (or silently do nothing)."""
     minimums = {"steps": 1, "batch_size": 1, "log_every": 1, "checkpoint_every": 1, "epochs": 0, "warmup_steps": 0,
                 "num_workers": 0, "critic_steps": 1, "width": 1, "critic_width": 1, "critic_layers": 1,
-                "n_layers": 1, "pool_size": 1, "blocks": 0, "n_down": 0, "n_res": 0}
+                "n_layers": 1, "pool_size": 1, "blocks": 0, "n_down": 0, "n_res": 0, "limit": 0}
     for name, minimum in minimums.items():
         if hasattr(config, name) and getattr(config, name) < minimum:
             raise VtoError(f"{name} must be at least {minimum}, got {getattr(config, name)}")
     if not 0 < config.lr < math.inf:
         raise VtoError(f"lr must be positive and finite, got {config.lr}")
     for name in ("beta1", "beta2"):
-        if not 0.0 <= getattr(config, name) < 1.0:
+        if hasattr(config, name) and not 0.0 <= getattr(config, name) < 1.0:
             raise VtoError(f"{name} must be in [0, 1), got {getattr(config, name)}")
     for name in ("lambda_imitation", "lambda_sens", "lambda_gp", "lambda_rendering"):
         if hasattr(config, name) and not getattr(config, name) >= 0:

@@ -147,3 +147,48 @@ def recolour_swatch(rgb, brightness, contrast, exposure, gamma, hue, saturation)
     hsv[..., 0] = (hsv[..., 0] + float(hue)) % 1.0
     hsv[..., 1] = hsv[..., 1] * float(saturation)
     return np.clip(_hsv_to_rgb64(hsv), 0.0, 1.0).astype(np.float32)
+
+
+_SRGB_TO_XYZ = np.array([[0.4124564, 0.3575761, 0.1804375],
+                         [0.2126729, 0.7151522, 0.0721750],
+                         [0.0193339, 0.1191920, 0.9503041]])
+_D65_WHITE = np.array([0.95047, 1.0, 1.08883])
+
+
+def srgb_to_lab(srgb):
+    """srgb: (..., 3) display values -> (..., 3) float32 CIELAB (D65; L in [0, 100] for [0, 1] input)."""
+    srgb = _as_float64(srgb)
+    _require_rgb_last_axis(srgb, "srgb")
+    xyz = _srgb_to_linear64(np.nan_to_num(srgb, nan=0.0, posinf=1.0, neginf=0.0)) @ _SRGB_TO_XYZ.T / _D65_WHITE
+    epsilon, kappa = 216 / 24389, 24389 / 27
+    f = np.where(xyz > epsilon, np.cbrt(xyz), (kappa * xyz + 16) / 116)
+    return _to_float32(np.stack([116 * f[..., 1] - 16, 500 * (f[..., 0] - f[..., 1]), 200 * (f[..., 1] - f[..., 2])],
+                                -1))
+
+
+def ciede2000(lab1, lab2):
+    """CIEDE2000 colour difference of two CIELAB arrays (..., 3) -> (...) float64 (Sharma et al. 2005)."""
+    lab1, lab2 = _as_float64(lab1), _as_float64(lab2)
+    l1, a1, b1 = np.moveaxis(lab1, -1, 0)
+    l2, a2, b2 = np.moveaxis(lab2, -1, 0)
+    c_mean = (np.hypot(a1, b1) + np.hypot(a2, b2)) / 2
+    g = 0.5 * (1 - np.sqrt(c_mean**7 / (c_mean**7 + 25.0**7)))
+    a1p, a2p = (1 + g) * a1, (1 + g) * a2
+    c1p, c2p = np.hypot(a1p, b1), np.hypot(a2p, b2)
+    h1p, h2p = np.degrees(np.arctan2(b1, a1p)) % 360, np.degrees(np.arctan2(b2, a2p)) % 360
+    dl, dc = l2 - l1, c2p - c1p
+    dh = h2p - h1p
+    dh = np.where(c1p * c2p == 0, 0.0, np.where(dh > 180, dh - 360, np.where(dh < -180, dh + 360, dh)))
+    dhh = 2 * np.sqrt(c1p * c2p) * np.sin(np.radians(dh) / 2)
+    l_mean, cp_mean = (l1 + l2) / 2, (c1p + c2p) / 2
+    h_sum = h1p + h2p
+    h_mean = np.where(c1p * c2p == 0, h_sum,
+                      np.where(np.abs(h1p - h2p) <= 180, h_sum / 2,
+                               np.where(h_sum < 360, (h_sum + 360) / 2, (h_sum - 360) / 2)))
+    t = (1 - 0.17 * np.cos(np.radians(h_mean - 30)) + 0.24 * np.cos(np.radians(2 * h_mean))
+         + 0.32 * np.cos(np.radians(3 * h_mean + 6)) - 0.20 * np.cos(np.radians(4 * h_mean - 63)))
+    sl = 1 + 0.015 * (l_mean - 50) ** 2 / np.sqrt(20 + (l_mean - 50) ** 2)
+    sc, sh = 1 + 0.045 * cp_mean, 1 + 0.015 * cp_mean * t
+    rt = (-2 * np.sqrt(cp_mean**7 / (cp_mean**7 + 25.0**7))
+          * np.sin(np.radians(60 * np.exp(-(((h_mean - 275) / 25) ** 2)))))
+    return np.sqrt((dl / sl) ** 2 + (dc / sc) ** 2 + (dhh / sh) ** 2 + rt * (dc / sc) * (dhh / sh))

@@ -8,7 +8,7 @@ Layout of a dataset folder DIR:
                                     manifest "source_images": false)
         render.png                  R(X, g)
         sens_00.png ... sens_MM.png R(X, g'_j) for each modelled j (with --sensitivity)
-        mask.png                    hair only: the hair mask X came with
+        mask.png                    hair: the hair mask X came with; lipstick with --masks: the lips mask
         params.json                 g raw and normalised, all parameters (unmodelled at defaults), g'_j,
                                     source id, Cycles seed
 

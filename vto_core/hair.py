@@ -133,3 +133,22 @@ def render_hair_reference(source: np.ndarray, mask: np.ndarray, swatch: np.ndarr
     """The whole stage in numpy: source (H, W, 3) display values, mask (H, W), swatch (h, w, 3) -> (H, W, 3)."""
     match = fit_hair_match(source, mask, swatch_target(swatch, values))
     return apply_hair_stage(source, mask, hair_gradient(mask), match, values)
+
+
+def hair_square(mask: np.ndarray, share: float = 0.98, smallest: float = 0.0) -> tuple[int, int, int] | None:
+    """The largest square of a hair mask (H, W) whose pixels are at least `share` hair: (x, y, side) from the
+    top-left, the one nearest the centre among equals; None when no square of at least max(8, smallest * min(H, W))
+    px qualifies. Used to cut a hair region (what an encoder reads) from a render or a masked photo."""
+    mask = np.nan_to_num(np.asarray(mask, np.float64), nan=0.0) > 0.5
+    height, width = mask.shape
+    table = np.zeros((height + 1, width + 1))
+    table[1:, 1:] = mask.cumsum(0).cumsum(1)
+    low = max(8, int(np.ceil(smallest * min(height, width))))
+    for side in range(min(height, width), low - 1, -1):
+        inside = (table[side:, side:] - table[:-side, side:] - table[side:, :-side] + table[:-side, :-side])
+        rows, cols = np.nonzero(inside >= share * side * side)
+        if len(rows):
+            centre = np.hypot(rows + side / 2 - height / 2, cols + side / 2 - width / 2)
+            best = int(np.argmin(centre))
+            return int(cols[best]), int(rows[best]), side
+    return None

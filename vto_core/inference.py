@@ -32,24 +32,31 @@ def import_onnxruntime():
     return onnxruntime
 
 
+def cpu_session(path: str | Path, threads: int, what: str = "model"):
+    """An onnxruntime session of `path` on the CPU: `threads` intra-op threads, one inter-op, no spinning; one-line
+    VtoErrors ('no {what} at ...', 'cannot load ...') for a missing or bad file."""
+    ort = import_onnxruntime()
+    path = Path(path)
+    if not path.is_file():
+        raise VtoError(f"no {what} at {path}")
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = threads
+    options.inter_op_num_threads = 1
+    # Inside Blender a spinning thread pool would steal the UI's cores between calls.
+    options.add_session_config_entry("session.intra_op.allow_spinning", "0")
+    options.add_session_config_entry("session.inter_op.allow_spinning", "0")
+    try:
+        return ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+    except Exception as exc:  # onnxruntime raises its own exception types for bad files
+        raise VtoError(f"cannot load {path} with onnxruntime: {str(exc).splitlines()[0]}") from None
+
+
 class EncoderSession:
     """An exported encoder: image(s) -> parameters in raw units; refuses a model made for another spec."""
 
     def __init__(self, path: str | Path, expected_spec: RendererSpec | None = None, threads: int = 2):
-        ort = import_onnxruntime()
         path = Path(path)
-        if not path.is_file():
-            raise VtoError(f"no encoder model at {path}")
-        options = ort.SessionOptions()
-        options.intra_op_num_threads = threads
-        options.inter_op_num_threads = 1
-        # Inside Blender a spinning thread pool would steal the UI's cores between calls.
-        options.add_session_config_entry("session.intra_op.allow_spinning", "0")
-        options.add_session_config_entry("session.inter_op.allow_spinning", "0")
-        try:
-            self.session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
-        except Exception as exc:  # onnxruntime raises its own exception types for bad files
-            raise VtoError(f"cannot load {path} with onnxruntime: {str(exc).splitlines()[0]}") from None
+        self.session = cpu_session(path, threads, "encoder model")
         metadata = self.session.get_modelmeta().custom_metadata_map
         if f"{METADATA_PREFIX}spec" not in metadata:
             raise VtoError(f"{path} is not a VTO encoder (no {METADATA_PREFIX}spec metadata)")

@@ -294,6 +294,13 @@ def _lipstick() -> RendererSpec:
     )
 
 
+# A photo of hair shows a colour, not how strongly the stage was applied to an unknown source nor where it faded in:
+# the estimate is the stage's setting that gives the artist's hair the photo's colour, at full effect on all the hair
+# (the defaults intensity 1, blend -1). The artist lowers Intensity or moves Blend afterwards for a mix or a fade.
+PHOTO_FIXED = ("a photo shows the colour, not how the stage was applied: a match sets it to its default (full effect "
+               "on all the hair), the artist changes it afterwards")
+
+
 def _hair() -> RendererSpec:
     from .hair import GLOBAL_CONTRAST_GAIN, LOCAL_CONTRAST_GAIN, LOCAL_RADIUS  # the tooltip quotes the stage's maths
 
@@ -325,11 +332,11 @@ def _hair() -> RendererSpec:
             p("saturation", "Saturation", 0.0, 3.0, 1.0, "factor", sw,
               description="Swatch saturation factor (0 = grey, 1 = unchanged), as Blender's Hue/Saturation/Value "
                           "node's Saturation; the result is clamped to [0, 1]"),
-            p("blend", "Blend", -1.0, 1.0, -1.0, "", non,
+            p("blend", "Blend", -1.0, 1.0, -1.0, "", non, unmodelled_reason=PHOTO_FIXED,
               description="Faded look: how far down the hair the new colour starts. It fades in over half the "
                           "hair's height from (1 + 3 blend) / 4 of the way down: -1 colours all the hair, 0 starts "
                           "a quarter down, 1 colours none; every step in between colours less"),
-            p("intensity", "Intensity", 0.0, 1.0, 1.0, "", non,
+            p("intensity", "Intensity", 0.0, 1.0, 1.0, "", non, unmodelled_reason=PHOTO_FIXED,
               description="Strength of the colour change: a mix between the hair's own pixels (0) and the "
                           "recoloured ones (1)"),
             p("shine", "Shine", 0.0, 1.0, 0.0, "", non,

@@ -1,43 +1,61 @@
 #!/bin/bash
 # The extension in a real Blender window: Debian trixie's Blender 4.3.2 (Python 3.13) under Xvfb, in a chroot.
 # Builds the linux-x64 zip, installs it from disk as an artist does (no hand edits), opens a .blend with a lips
-# material, presses Match in the Material tab and in the Compositor's sidebar with real X11 clicks (xdotool), undoes
-# with a real ctrl+z, and saves screenshots and result.json in OUT.   Needs root (chroot, mounts).
-#   usage: bash scripts/real_window/run.sh [OUT]     (default /work/cache/real-blender/out; about 2 min with the
+# material, presses Match (Fast, then Better) in the Material tab on a whole portrait and Match in the Compositor's
+# sidebar on a patch of hair, with real X11 clicks (xdotool), undoes with a real ctrl+z, and saves screenshots and
+# result.json in OUT.   Needs root (chroot, mounts).
+#   usage: bash scripts/real_window/run.sh [OUT]     (default /work/cache/real-blender/out; about 3 min with the
 #          chroot made by setup_chroot.sh, which this runs first: about 3 min and 1.5 GB the first time)
+#   VTO_UPDATE_DOCS=1 also copies the panel crops to docs/panel_*.png (the README's pictures).
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd); PROJECT=$(cd "$HERE/../.." && pwd)
 CACHE=${VTO_REAL_BLENDER:-/work/cache/real-blender}
 OUT=$(mkdir -p "${1:-$CACHE/out}" && cd "${1:-$CACHE/out}" && pwd)
 PY=${PY:-$PROJECT/.venv/bin/python}
 R=$(bash "$HERE/setup_chroot.sh" "$CACHE/trixie" | tail -1)
-P=$R/probe
+# A folder of this run's own inside the chroot (two runs at once must not share one); /$PN inside the chroot.
+PN=probe.$$; P=$R/$PN
 rm -rf "$P"; mkdir -p "$P/out"
 mount_all() { for d in proc sys dev dev/pts; do mountpoint -q "$R/$d" || mount --bind "/$d" "$R/$d"; done; }
-umount_all() { for d in dev/pts dev sys proc; do umount "$R/$d" 2>/dev/null || true; done; }
-trap umount_all EXIT
+umount_all() {  # only when no other run is inside the chroot
+    ls -d "$R"/probe.* >/dev/null 2>&1 && return
+    for d in dev/pts dev sys proc; do umount "$R/$d" 2>/dev/null || true; done
+}
+trap 'rm -rf "$P" "$P.build"; umount_all' EXIT
 mount_all
 
-# The zip as shipped (linux-x64: cp311 and cp313 onnxruntime), and two reference photos rendered by the project.
-(cd "$PROJECT" && "$PY" scripts/build_extension.py --out "$CACHE/build" --platform linux-x64 \
-    --wheels "${VTO_WHEEL_CACHE:-$CACHE/wheels}" | tail -1 > "$CACHE/zip_path")
-cp "$(cat "$CACHE/zip_path")" "$P/vto_match.zip"
-# Rendered afresh each run (seconds): a cached one would keep an older scene's lighting after the scene changes.
-"$(dirname "$PY")/vto" render lipstick --params "preset:Classic Red" --res 128 --samples 16 \
-    --out "$P/lips_ref.png" > /dev/null
-"$(dirname "$PY")/vto" render hair --params '{"hue": 0.08, "saturation": 1.6}' --res 128 --samples 8 \
-    --out "$P/hair_ref.png" > /dev/null
+# The zip as shipped (linux-x64: cp311 and cp313 onnxruntime).
+ZIP=$(cd "$PROJECT" && "$PY" scripts/build_extension.py --out "$P.build" --platform linux-x64 \
+    --wheels "${VTO_WHEEL_CACHE:-$CACHE/wheels}" | tail -1)
+cp "$ZIP" "$P/vto_match.zip"
+# The references are a real photograph: scikit-image's astronaut (NASA, public domain), the whole portrait for the
+# lips (the add-on finds them) and a patch of her hair only for the hair stage, written as PNGs.
+"$PY" - "$P/astronaut.png" "$P/astronaut_hair.png" <<'PYEOF'
+import sys
+from PIL import Image
+from skimage import data
+portrait = data.astronaut()
+Image.fromarray(portrait).save(sys.argv[1])
+Image.fromarray(portrait[20:90, 150:230]).save(sys.argv[2])
+PYEOF
 cp "$HERE/stage1_install.py" "$HERE/stage2_gui.py" "$P/"
 
 # 1. blender -b: install from disk into a fresh user folder, save the preferences, save lips.blend.
-chroot "$R" env HOME=/probe BLENDER_USER_RESOURCES=/probe/user blender -b --factory-startup \
-    --python-exit-code 3 --python /probe/stage1_install.py -- /probe/vto_match.zip /probe/lips.blend \
+chroot "$R" env HOME=/$PN BLENDER_USER_RESOURCES=/$PN/user blender -b --factory-startup \
+    --python-exit-code 3 --python /$PN/stage1_install.py -- /$PN/vto_match.zip /$PN/lips.blend \
     > "$OUT/stage1.log" 2>&1 || { tail -30 "$OUT/stage1.log"; exit 3; }
-# 2. the window: Xvfb 1600x1000, Mesa llvmpipe; every step on a timer, clicks and keys from xdotool.
-chroot "$R" env HOME=/probe BLENDER_USER_RESOURCES=/probe/user timeout 300 \
-    xvfb-run -a -s "-screen 0 1600x1000x24" blender /probe/lips.blend --python-exit-code 3 \
-    --python /probe/stage2_gui.py -- /probe/lips_ref.png /probe/hair_ref.png /probe/out \
-    > "$OUT/stage2.log" 2>&1 || { tail -30 "$OUT/stage2.log"; exit 4; }
+# 2. the window: Xvfb 1600x1000, Mesa llvmpipe; every step on a timer, clicks and keys from xdotool. On failure
+#    (exit 4) OUT still gets what stage 2 wrote: result.json up to the step it reached, and the screenshots.
+chroot "$R" env HOME=/$PN BLENDER_USER_RESOURCES=/$PN/user timeout 480 \
+    xvfb-run -a -s "-screen 0 1600x1000x24" blender /$PN/lips.blend --python-exit-code 3 \
+    --python /$PN/stage2_gui.py -- /$PN/astronaut.png /$PN/astronaut_hair.png /$PN/out \
+    > "$OUT/stage2.log" 2>&1 || { cp "$P"/out/* "$OUT/" 2>/dev/null; tail -30 "$OUT/stage2.log"; exit 4; }
 cp "$P"/out/* "$OUT/"
 grep -h "^RESULT\|^STEP" "$OUT/stage1.log" "$OUT/stage2.log" | cut -c1-200
 ls "$OUT"/result.json
+if [ "${VTO_UPDATE_DOCS:-0}" = 1 ]; then
+    for pair in lips_before:panel_before_match lips_after:panel_after_match lips_better:panel_after_better \
+                hair_after:panel_hair_after_match; do
+        cp "$OUT/${pair%%:*}_panel.png" "$PROJECT/docs/${pair#*:}.png"
+    done
+fi

@@ -1,22 +1,40 @@
 """Stage 2 (a real Blender window under Xvfb): the Material tab and the Compositor sidebar, Match pressed with real
 X11 clicks (xdotool), undone with a real ctrl+z; screenshots (ImageMagick: Blender's own is black under Xvfb) and
-OUT/result.json. Every step runs on a timer, so the window draws and handles the events in between."""
+OUT/result.json (written as it goes, so a run that stops still tells how far it got). Every step runs on a timer, so
+the window draws and handles the events in between.
+
+Lips: a whole portrait (the add-on finds the lips), Match (Fast) clicked, undone, clicked twice more; then Better
+chosen in the Quality row (a real click on its button) and Match clicked once the material preview is idle: the modal
+fit runs. Hair: a patch of the portrait's hair, Match (Fast), undone. Last, what an artist does quickly: Better, then
+Match while Cycles renders the material's preview again (the fit must not hang Blender). A main loop stalled for
+STALL_S seconds dumps every thread's Python stack into the log and exits."""
+import faulthandler
+import importlib
 import json
 import os
 import subprocess
 import sys
+import threading
 import time
 import traceback
 
 import bpy
 
 LIPS_REF, HAIR_REF, OUT = sys.argv[sys.argv.index("--") + 1:][:3]
-RESULT = {"python": sys.version.split()[0], "blender": bpy.app.version_string, "errors": []}
+RESULT = {"python": sys.version.split()[0], "blender": bpy.app.version_string, "errors": [], "notes": []}
 T0 = time.time()
+STALL_S = 90  # Blender's main loop stalled this long (no timer tick): dump every thread's Python stack and exit
 
 
 def log(*args):
     print(f"STEP [{time.time() - T0:5.1f}s]", *args, flush=True)
+    RESULT["last_step"] = " ".join(map(str, args))
+    save()
+
+
+def save():
+    with open(os.path.join(OUT, "result.json"), "w") as handle:
+        json.dump(RESULT, handle, indent=1)
 
 
 def window():
@@ -98,31 +116,129 @@ def find_button(region, shot):
     return left + width // 2, top + (y0 + y1) // 2
 
 
-def click_match(props, inputs, name):
-    """A real click on the hovered Match; waits for the values; returns (values, reported ms)."""
-    before = props.last_estimate  # (a timer may not write ID data while a preview renders: only read here)
+SELECTED = (71, 114, 179)  # the default theme's selected radio button (and ticked checkbox) blue, #4772b3
+
+
+def find_selected_enum(region, shot):
+    """(left, right, top, bottom) in X11 pixels of the selected button of an enum row in `region` (Quality: Fast),
+    found in the screenshot `shot`: the widest band of rows, 14 to 32 pixels high, whose selected-blue pixels span
+    24 pixels up to half the region with few gaps (a ticked checkbox is 14 pixels wide, the material slot list's
+    selected row the whole list; the button's label splits the blue)."""
+    import numpy as np
+
+    left, top, width, height = x11_rect(region)
+    raw = subprocess.run(["convert", os.path.join(OUT, f"{shot}.png"), "-crop", f"{width}x{height}+{left}+{top}",
+                          "+repage", "rgb:-"], check=True, capture_output=True).stdout
+    image = np.frombuffer(raw, np.uint8).reshape(height, width, 3).astype(int)
+    blue = (np.abs(image - SELECTED) <= 8).all(axis=2)
+    spans = []
+    for y in range(height):
+        xs = np.flatnonzero(blue[y])
+        ok = len(xs) >= 16 and 24 <= xs[-1] - xs[0] <= width // 2 and len(xs) >= 0.5 * (xs[-1] - xs[0] + 1)
+        spans.append((xs[0], xs[-1]) if ok else None)
+    bands, start = [], None
+    for y in range(height + 1):
+        if y < height and spans[y] is not None and start is None:
+            start = y
+        elif (y == height or spans[y] is None) and start is not None:
+            if bands and start - bands[-1][1] < 6:  # the label's rows split the button's in two
+                start = bands.pop()[0]
+            bands.append((start, y))
+            start = None
+    bands = [(a, b) for a, b in bands if 14 <= b - a <= 32]
+    if not bands:
+        raise RuntimeError(f"no selected enum button found in {shot}")
+    y0, y1 = max(bands, key=lambda band: spans[(band[0] + band[1]) // 2][1] - spans[(band[0] + band[1]) // 2][0])
+    x0, x1 = spans[(y0 + y1) // 2]
+    log("selected button", x0, x1, y0, y1, "of", width, height)
+    return left + x0, left + x1, top + y0, top + y1
+
+
+def modal_operators():
+    return [op.bl_idname for op in getattr(window(), "modal_operators", [])]
+
+
+class MatchFailed(RuntimeError):
+    """The click started Match, and it ended without writing (it reported an error)."""
+
+
+def preview_busy():
+    """Whether Cycles renders a preview (the material's icons) in a job thread: a thread other than this one whose
+    Python stack is in Cycles' engine. (bpy.app.is_job_running("RENDER_PREVIEW") stayed False here while it did.)"""
+    main = threading.get_ident()
+    return bpy.app.is_job_running("RENDER_PREVIEW") or any(
+        ident != main and any("cycles" in f.f_code.co_filename for f in frames(frame))
+        for ident, frame in sys._current_frames().items())
+
+
+def frames(frame):
+    while frame is not None:
+        yield frame
+        frame = frame.f_back
+
+
+def click_match(props, inputs, name, wait=5.0, running_shot=None):
+    """A real click on the hovered Match; waits (up to `wait` s) for the values; returns (values, reported ms).
+    `props` gives the settings group (undo replaces it). running_shot: a screenshot of the whole window of that name
+    3 s after the click, while it runs. MatchFailed when, 3 s on, nothing was written and no operator runs."""
+    before = props().last_estimate  # (a timer may not write ID data while a preview renders: only read here)
     xdo("click", 1)
-    for _ in range(100):
+    clicked = time.time()
+    for step in range(int(wait / 0.05)):
         yield 0.05
-        if props.last_estimate != before:
+        if props().last_estimate != before:
             break
+        if running_shot and step == 59:
+            grab(running_shot)
+        if step == 59 and not modal_operators():
+            raise MatchFailed(f"{name}: Match ended without writing")
+        if step % 100 == 99:  # a long one (Better): what Blender is doing, every 5 s
+            cpu = os.times()
+            log(name, f"waiting: {len(bpy.data.scenes)} scenes, modal {modal_operators()}, "
+                      f"cpu {cpu.user + cpu.system:.0f} s")
     else:
-        raise RuntimeError(f"{name}: the click wrote nothing")
-    ms = 1000 * json.loads(props.last_estimate)["seconds"]
-    log(name, f"{ms:.1f} ms")
+        raise RuntimeError(f"{name}: the click wrote nothing in {wait:g} s")
+    ms = 1000 * json.loads(props().last_estimate)["seconds"]
+    log(name, f"{ms:.1f} ms (seen {time.time() - clicked:.1f} s after the click)")
     return inputs(), ms
+
+
+def wait_preview(busy, limit, quiet=0.0):
+    """Wait (up to `limit` s) until a preview renders (busy=True), or until none has for `quiet` s (busy=False);
+    returns the seconds waited."""
+    start = since = time.time()
+    while time.time() - start < limit:
+        if preview_busy() != busy:
+            since = time.time()
+        elif time.time() - since >= quiet:
+            break
+        yield 0.05
+    return round(time.time() - start, 2)
+
+
+def operator_error(area, material_name):
+    """Why Match failed: the operator run again from Python (EXEC, the panel's settings), its error line."""
+    try:
+        with bpy.context.temp_override(window=window(), area=area):
+            bpy.ops.vto.match_from_photo("EXEC_DEFAULT", target="MATERIAL", material=material_name)
+    except RuntimeError as exc:
+        return str(exc).strip()
+    return "(run again from Python it wrote values)"
 
 
 def retrying(action):
     """Run `action` once Blender allows writing ID data (not while a material preview renders)."""
-    for _ in range(100):
+    for attempt in range(600):  # (on two busy cores the first preview icons take a while)
         try:
-            return action()
+            done = action()
+            if attempt:
+                log(f"(Blender allowed writing after {attempt / 10:.1f} s)")
+            return done
         except AttributeError as exc:
             if "not allowed" not in str(exc):
                 raise
         yield 0.1
-    raise RuntimeError("Blender did not allow writing ID data for 10 s")
+    raise RuntimeError("Blender did not allow writing ID data for 60 s")
 
 
 def undo():
@@ -131,35 +247,138 @@ def undo():
     yield 1.0
 
 
+def quality_label(props):
+    """The cost line the panel shows under the Quality row, from the installed extension's panels module."""
+    return extension("panels").quality_cost("lipstick", props.quality)
+
+
+def extension(module):
+    """A module of the installed extension (bl_ext.<repo>.vto_match.<module>)."""
+    (package,) = [name for name in bpy.context.preferences.addons.keys() if name.endswith(".vto_match")]
+    return importlib.import_module(f"{package}.{module}")
+
+
+def lips_found(path):
+    """What the add-on's lips locator finds in the reference: its box, how, score, and the frame the encoder reads."""
+    reference = extension("reference").read_reference("lipstick", {"image_path": path})
+    lips = reference.lips
+    return {"module": extension("reference").__name__, "box": [int(v) for v in lips.box], "how": lips.how,
+            "faces": int(lips.faces), "score": round(float(lips.score), 4), "frame": [int(v) for v in reference.box],
+            "size": list(reference.whole.shape[:2])}
+
+
+def quality_buttons(region, shot):
+    """X11 centres of the Fast and Better buttons (three equal buttons, Fast selected in `shot`)."""
+    x0, x1, y0, y1 = find_selected_enum(region, shot)
+    width = x1 - x0 + 1
+    return {"FAST": ((x0 + x1) // 2, (y0 + y1) // 2), "BETTER": (x0 + width * 3 // 2, (y0 + y1) // 2)}
+
+
+def choose(buttons, quality, settle=0.4):
+    """Pick `quality` in the Quality row, as an artist does: a real click on its button (`settle` s after moving
+    there). Falls back to setting the property when the click did not take (noted). Returns 'click' or 'property'."""
+    xdo("mousemove", *buttons[quality])
+    yield settle
+    xdo("click", 1)
+    for _ in range(40):
+        yield 0.05
+        if lips_props().quality == quality:
+            log(quality, "chosen by a click")
+            return "click"
+    RESULT["notes"].append(f"the click on {quality} did not choose it")  # (then the property, so the rest runs)
+    yield from retrying(lambda: setattr(lips_props(), "quality", quality))
+    log(quality, "chosen by the property")
+    return "property"
+
+
+def lips_props():
+    return bpy.data.objects["Cube"].active_material.vto_match  # undo reloads the datablocks: look it up each time
+
+
+def taller(area, pixels):
+    """Drag the top edge of `area` up by `pixels` (the Outliner above it gets shorter), as an artist does: the
+    default window's Properties editor is too short to show the values listed under Match."""
+    height = area.height
+    x = area.x + area.width // 2
+    edge = window().height - (area.y + area.height) - 2  # X11 row of the border above the area
+    xdo("mousemove", x, edge)
+    yield 0.4
+    xdo("mousedown", 1)
+    yield 0.2
+    for step in range(1, 6):
+        xdo("mousemove", x, edge - pixels * step // 5)
+        yield 0.1
+    xdo("mouseup", 1)
+    yield 0.5
+    log("properties editor height", height, "->", area.height)
+    if area.height == height:
+        RESULT["notes"].append("the drag did not move the Properties editor's top edge")
+    RESULT["properties_size"] = [area.width, area.height]
+
+
 def script():
     win = window()
     props_area = area_of("PROPERTIES")
     props_area.spaces.active.context = "MATERIAL"
-    material = bpy.data.objects["Cube"].active_material
-    material.vto_match.image_path = LIPS_REF  # what the artist types or browses into Reference
+    yield 1.0
+    yield from taller(props_area, 260)
+    # what the artist types or browses into Reference (a timer may not write while the material preview renders)
+    # ("//astronaut.png": relative to the .blend, which sits beside the photos, as an artist's file browser writes it)
+    yield from retrying(lambda: setattr(lips_props(), "image_path", bpy.path.relpath(LIPS_REF)))
     with bpy.context.temp_override(window=win, area=props_area):
         bpy.ops.ed.undo_push(message="Reference")  # as the UI does after an edit
+    props_area.tag_redraw()  # (a timer's edit sends no notifier)
     RESULT["engine"] = bpy.context.scene.render.engine
-    yield 4.0  # the panel draws, the encoder loads on its timer
+    yield 4.0  # the panel draws, the encoder loads on its timer, the lips are found for the thumbnail
     grab("lips_before", region_of(props_area))
     defaults = lips_inputs()
     x, y = find_button(region_of(props_area), "lips_before")
     xdo("mousemove", x, y)
     yield 0.5
-    first, first_ms = yield from click_match(material.vto_match, lips_inputs, "lips click 1")
+    first, first_ms = yield from click_match(lips_props, lips_inputs, "lips click 1")
     yield 1.0
     grab("lips_after", region_of(props_area))
     yield from undo()
     undone = lips_inputs()
-    material = bpy.data.objects["Cube"].active_material  # undo reloads the datablocks: old references are gone
-    RESULT["reference_after_undo"] = material.vto_match.image_path
+    RESULT["reference_after_undo"] = lips_props().image_path
+    grab("lips_undone", region_of(props_area))
+    if find_button(region_of(props_area), "lips_undone") != (x, y):
+        raise RuntimeError("Match moved after the undo: the panel's layout changed")
     xdo("mousemove", x, y)
     yield 0.5
-    second, second_ms = yield from click_match(material.vto_match, lips_inputs, "lips click 2")
+    second, second_ms = yield from click_match(lips_props, lips_inputs, "lips click 2")
     yield 0.3
-    third, third_ms = yield from click_match(material.vto_match, lips_inputs, "lips click 3")
-    RESULT["lips"] = {"defaults": defaults, "first": first, "undone": undone, "second": second, "third": third,
-                      "ms": [first_ms, second_ms, third_ms], "estimate": material.vto_match.last_estimate}
+    third, third_ms = yield from click_match(lips_props, lips_inputs, "lips click 3")
+    lips = RESULT["lips"] = {"defaults": defaults, "first": first, "undone": undone, "second": second,
+                             "third": third, "ms": [first_ms, second_ms, third_ms],
+                             "estimate": lips_props().last_estimate, "quality_label": quality_label(lips_props())}
+    try:  # the lips the add-on finds, through the installed extension's own module
+        lips["found"] = lips_found(LIPS_REF)
+    except Exception as exc:  # noqa: BLE001  (recorded, not fatal: the screenshots show the outline)
+        RESULT["errors"].append(f"lips box: {type(exc).__name__}: {exc}")
+
+    # Better: a real click on its button in the Quality row, then Match once the material preview is idle.
+    yield 0.5
+    grab("lips_fast_chosen", region_of(props_area))
+    buttons = quality_buttons(region_of(props_area), "lips_fast_chosen")
+    lips["better_chosen_by"] = yield from choose(buttons, "BETTER")
+    lips["better_label"] = quality_label(lips_props())
+    lips["preview_wait_s"] = yield from wait_preview(False, 60.0, quiet=3.0)  # once the icons are rendered
+    grab("lips_better_chosen", region_of(props_area))  # the cost line of Better, before Match
+    xdo("mousemove", x, y)
+    yield 0.5
+    try:
+        better, better_ms = yield from click_match(lips_props, lips_inputs, "lips Better click", wait=120.0,
+                                                   running_shot="lips_better_running")
+        lips.update({"better": better, "better_ms": [better_ms], "better_estimate": lips_props().last_estimate})
+    except MatchFailed as exc:
+        yield from wait_preview(False, 60.0, quiet=1.0)
+        lips["better_error"] = f"{exc}: {operator_error(props_area, lips_props().id_data.name)}"
+        RESULT["errors"].append(lips["better_error"])
+        log(lips["better_error"])
+    lips["quality"] = lips_props().quality
+    yield 1.5
+    grab("lips_better", region_of(props_area))
 
     # The hair stage: the 3D viewport becomes the Compositor, its sidebar on the VTO tab.
     view = area_of("VIEW_3D")
@@ -167,7 +386,7 @@ def script():
     space = view.spaces.active
     space.show_region_ui = True
     scene = bpy.context.scene
-    yield from retrying(lambda: setattr(scene.vto_hair_match, "image_path", HAIR_REF))
+    yield from retrying(lambda: setattr(scene.vto_hair_match, "image_path", bpy.path.relpath(HAIR_REF)))
     with bpy.context.temp_override(window=win, area=view):
         bpy.ops.ed.undo_push(message="Hair reference")
     yield 1.0
@@ -181,22 +400,44 @@ def script():
     yield 3.0
     grab("hair_before", sidebar)
     hair_defaults = hair_inputs()
-    x, y = find_button(sidebar, "hair_before")
-    xdo("mousemove", x, y)
+    hx, hy = find_button(sidebar, "hair_before")
+    xdo("mousemove", hx, hy)
     yield 0.5
-    hair_first, hair_ms = yield from click_match(scene.vto_hair_match, hair_inputs, "hair click 1")
+    hair_first, hair_ms = yield from click_match(lambda: bpy.context.scene.vto_hair_match, hair_inputs,
+                                                 "hair click 1")
     yield 1.0
     grab("hair_after", sidebar)
-    estimate = scene.vto_hair_match.last_estimate
+    estimate = bpy.context.scene.vto_hair_match.last_estimate
     yield from undo()
     RESULT["hair"] = {"defaults": hair_defaults, "first": hair_first, "undone": hair_inputs(), "ms": [hair_ms],
                       "estimate": estimate}
+
+    # Quickly, as an artist does: Better, then Match at once. Choosing Better changes the material (the settings live
+    # on it), so Cycles renders its preview icons again; Match is clicked while it does.
+    race = lips["race"] = {}
+    yield from choose(buttons, "FAST")
+    race["preview_quiet_s"] = yield from wait_preview(False, 60.0, quiet=3.0)
+    yield from choose(buttons, "BETTER", settle=0.2)
+    xdo("mousemove", x, y)
+    yield 0.1
+    race["preview_started_s"] = yield from wait_preview(True, 5.0)
+    race["preview_running_at_click"] = preview_busy()
+    log("quick Better click; the preview renders:", race["preview_running_at_click"])
+    try:
+        values, ms = yield from click_match(lips_props, lips_inputs, "lips quick Better click", wait=120.0)
+        race.update({"values": values, "ms": ms})
+        lips["better_ms"] = lips.get("better_ms", []) + [ms]
+    except MatchFailed as exc:
+        race["error"] = str(exc)
+        RESULT["errors"].append(f"quick Better: {exc}")
+    RESULT["completed"] = True
 
 
 STEPS = script()
 
 
 def tick():
+    faulthandler.dump_traceback_later(STALL_S, exit=True)  # re-armed at each tick: a deadlock fails fast, with stacks
     try:
         return next(STEPS)
     except StopIteration:
@@ -204,9 +445,9 @@ def tick():
     except Exception:
         RESULT["errors"].append(traceback.format_exc())
         traceback.print_exc()
-    with open(os.path.join(OUT, "result.json"), "w") as handle:
-        json.dump(RESULT, handle, indent=1)
-    print("RESULT stage2 " + json.dumps({k: v for k, v in RESULT.items() if k in ("lips", "hair", "errors")})[:3000])
+    save()
+    shown = {k: v for k, v in RESULT.items() if k in ("lips", "hair", "errors", "notes")}
+    print("RESULT stage2 " + json.dumps(shown)[:4000])
     sys.stdout.flush()
     os._exit(0)  # quit_blender from a timer may refuse ("drawing/rendering"); nothing is left to save
 

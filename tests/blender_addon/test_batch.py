@@ -58,12 +58,20 @@ def batch_out(photos, tmp_path_factory):
     return out
 
 
+def photo_estimate(session, renderer: str, path: Path) -> dict:
+    """What the panel's Fast gives a photo: its lips (or hair) read, the encoder, the colour imitator's fit."""
+    from blender_addon.batch import batch_reference, fast_values
+
+    reference = batch_reference(renderer, path)
+    return fast_values(session.spec, reference, session.predict(reference.image)[0])
+
+
 def test_presets_are_the_medians_of_the_per_image_estimates(photos, batch_out):
     session = EncoderSession(MODEL)
     written = load_presets("lipstick", batch_out / "presets.json")
     assert sorted(written) == ["bare-nude", "classic-red"]
     for product in written:
-        estimates = [session.predict(read_image(photos / f"{stem}.png")[0])[0] for stem in PHOTOS
+        estimates = [photo_estimate(session, "lipstick", photos / f"{stem}.png") for stem in PHOTOS
                      if stem.startswith(product)]
         expected = {k: float(np.median([e[k] for e in estimates])) for k in estimates[0]}
         assert written[product] == pytest.approx(expected, abs=1e-9)
@@ -219,7 +227,8 @@ def test_hair_batch_takes_circular_medians_and_skips_the_asset_library(tmp_path)
     assert report["skipped"] == [] and report["asset_library"] is None
     assert report["asset_library_skipped"] == HAIR_SKIPPED and not (out / "assets.blend").exists()
     session, spec = EncoderSession(model), get_spec("hair")
-    estimates = [session.predict(read_image(photos / name)[0])[0] for name in report["products"]["copper"]]
+    estimates = [photo_estimate(session, "hair", photos / name) for name in report["products"]["copper"]]
+    assert all((e["intensity"], e["blend"]) == (1.0, -1.0) for e in estimates)  # a photo: full effect
     written = load_presets("hair", out / "presets.json")["copper"]
     assert written["hue"] == circular_median([e["hue"] for e in estimates], 0.0, 1.0)
     assert written == pytest.approx(median_values(spec, estimates))

@@ -240,3 +240,25 @@ def test_vary_draws_an_unmodelled_input_per_look_and_keeps_the_sampled_ones(tmp_
     assert any(not np.array_equal(plain[i].render, varied[i].render) for i in range(4))  # the coat shows it
     make(tmp_path / "again", 4, "--vary", "gloss_roughness")  # a pure function of (seed, index)
     assert tree_hashes(tmp_path / "again") == tree_hashes(tmp_path / "varied")
+
+
+def test_looks_share_a_cached_hair_source_and_stay_a_function_of_seed_and_index(tmp_path):
+    argv = ["hair", "--n", "4", "--res", "16", "--samples", "2", "--seed", "9", "--looks-per-source", "2", "--quiet"]
+    assert cmd_dataset([*argv, "--out", str(tmp_path / "a")]) == 0
+    reader = DatasetReader(tmp_path / "a")
+    sources = [reader[i].record["source"] for i in range(4)]
+    assert sources[0] == sources[1] != sources[2] == sources[3]
+    assert np.array_equal(reader[0].source, reader[1].source) and not np.array_equal(reader[0].render,
+                                                                                    reader[1].render)
+    assert len(list((tmp_path / "a" / "source_cache").glob("*.npz"))) == 2
+    assert cmd_dataset([*argv, "--out", str(tmp_path / "b"), "--shard", "1/2"]) == 0  # samples 2, 3 alone
+    assert cmd_dataset([*argv, "--out", str(tmp_path / "b"), "--shard", "0/2"]) == 0
+    samples = {k: v for k, v in tree_hashes(tmp_path / "a").items() if k.startswith("samples")}
+    assert samples == {k: v for k, v in tree_hashes(tmp_path / "b").items() if k.startswith("samples")}
+    assert json.loads((tmp_path / "a" / "manifest.json").read_text())["looks_per_source"] == 2
+
+
+def test_looks_per_source_is_for_the_default_hair_scene_only(tmp_path, capsys):
+    assert cli.run(["dataset", "lipstick", "--out", str(tmp_path / "x"), "--n", "2", "--looks-per-source", "2",
+                    "--quiet"]) == 2
+    assert "default hair scene only" in capsys.readouterr().err and not (tmp_path / "x").exists()

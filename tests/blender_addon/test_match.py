@@ -14,6 +14,7 @@ pytest.importorskip("torch")
 from blender_addon.match import NO_SOURCE, SourceRenderer, match, photo_source  # noqa: E402
 from blender_addon.refine import into_box, refine_by_render  # noqa: E402
 from vto_core import cli  # noqa: E402
+from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import read_image, write_image  # noqa: E402
 from vto_core.inference import EncoderSession  # noqa: E402
 from vto_core.metrics import mse  # noqa: E402
@@ -69,7 +70,7 @@ def in_range(values: dict) -> bool:
 def test_match_writes_the_encoders_estimate_in_the_presets_format(models, reference, tmp_path, capsys):
     encoder, _ = models
     out = tmp_path / "params.json"
-    assert cli.run(["match", "--model", encoder, "--image", reference, "--out-params", str(out)]) == 0
+    assert cli.run(["match", "--model", encoder, "--image", reference, "--whole-image", "--out-params", str(out)]) == 0
     printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     expected = EncoderSession(encoder).predict(read_image(reference)[0])[0]
     written = parse_params(str(out), "lipstick")  # what `vto render --params FILE` reads
@@ -82,8 +83,8 @@ def test_match_writes_the_encoders_estimate_in_the_presets_format(models, refere
 def test_refinement_without_a_source_says_so_and_keeps_the_estimate(refine, models, reference, tmp_path, capsys):
     encoder, imitator = models
     out = tmp_path / "params.json"
-    assert cli.run(["match", "--model", encoder, "--image", reference, "--refine", refine, "--imitator", imitator,
-                    "--out-params", str(out)]) == 0
+    assert cli.run(["match", "--model", encoder, "--image", reference, "--whole-image", "--refine", refine,
+                    "--imitator", imitator, "--out-params", str(out)]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"vto match: {NO_SOURCE}"]
     expected = EncoderSession(encoder).predict(read_image(reference)[0])[0]
@@ -218,6 +219,7 @@ def bad_files(tmp_path):
     (["--refine", "imitator:3", "--source", "3", "--imitator", "{tmp}/no-run"], "no imitator run folder"),
     (["--refine", "render:3", "--source", "lips"], "lipstick sources are seeds"),
     (["--out-params", "{tmp}/missing/out.json"], "no folder"),
+    (["--quality", "best", "--refine", "render:3", "--source", "3"], "choose one"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(argv, message, models, reference, bad_files, capsys):
     args = {"--model": models[0], "--image": reference, "--out-params": str(bad_files / "out.json")}
@@ -226,6 +228,84 @@ def test_bad_input_is_one_line_and_writes_nothing(argv, message, models, referen
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and re.search(re.escape(message), err), err
     assert not (bad_files / "out.json").exists() and not (bad_files / "no-run").exists()
+
+
+@pytest.fixture(scope="module")
+def portrait(tmp_path_factory):
+    """scikit-image's astronaut (public domain, NASA), whole, as a PNG file."""
+    import skimage.data
+
+    path = tmp_path_factory.mktemp("portrait") / "astronaut.png"
+    write_image(path, skimage.data.astronaut().astype(np.float32) / 255)
+    return path
+
+
+def test_a_whole_portrait_is_read_at_its_lips(models, portrait, tmp_path, capsys):
+    """No crop, no mask: the lips are found and framed; the estimate is the encoder's reading of that frame."""
+    from blender_addon.reference import lips_frame
+
+    out = tmp_path / "params.json"
+    assert cli.run(["match", "--model", models[0], "--image", str(portrait), "--out-params", str(out)]) == 0
+    printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    x, y, w, h = printed["lips"]["box"]
+    assert printed["lips"]["how"] == "face" and 195 <= x <= 205 and 130 <= y <= 145 and 40 <= w <= 55
+    whole = read_image(portrait)[0]
+    mask = np.zeros(whole.shape[:2])
+    mask[y:y + h, x:x + w] = 1
+    fx, fy, fw, fh = lips_frame(mask)
+    framed = EncoderSession(models[0]).predict(whole[fy:fy + fh, fx:fx + fw])[0]
+    whole_image = EncoderSession(models[0]).predict(whole)[0]
+    written = parse_params(str(out), "lipstick")
+    assert np.allclose([written[k] for k in SPEC.modelled], [framed[k] for k in SPEC.modelled], atol=0.05 * 255)
+    assert not np.allclose([written[k] for k in SPEC.modelled], [whole_image[k] for k in SPEC.modelled], atol=1e-3)
+
+
+def test_crop_and_mask_work_without_a_material(models, portrait, tmp_path):
+    crop = tmp_path / "crop.json"
+    assert cli.run(["match", "--model", models[0], "--image", str(portrait), "--crop", "196,117,56,56",
+                    "--out-params", str(crop)]) == 0
+    whole = read_image(portrait)[0]
+    mask = np.zeros(whole.shape[:2], np.float32)
+    mask[137:157, 201:249] = 1.0  # the hand-drawn lips box
+    write_image(tmp_path / "mask.png", mask)
+    masked = tmp_path / "mask.json"
+    assert cli.run(["match", "--model", models[0], "--image", str(portrait), "--mask", str(tmp_path / "mask.png"),
+                    "--out-params", str(masked)]) == 0
+    session = EncoderSession(models[0])
+    assert parse_params(str(crop), "lipstick") == pytest.approx(session.predict(whole[117:173, 196:252])[0])
+    assert parse_params(str(masked), "lipstick") == pytest.approx(session.predict(whole[116:178, 194:256])[0])
+
+
+@pytest.mark.parametrize("picture", ["noise", "blank", "dark"])
+def test_a_picture_without_lips_is_one_line_exit_2_and_nothing_written(picture, models, tmp_path, capsys):
+    image = {"noise": np.random.default_rng(0).random((300, 400, 3)), "blank": np.ones((300, 400, 3)),
+             "dark": np.zeros((300, 400, 3))}[picture]
+    write_image(tmp_path / "in.png", image.astype(np.float32))
+    out = tmp_path / "params.json"
+    assert cli.run(["match", "--model", models[0], "--image", str(tmp_path / "in.png"), "--quality", "best",
+                    "--out-params", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no lips found" in err[0] and not out.exists()
+
+
+def test_two_faces_use_the_larger_and_say_so(models, portrait, tmp_path, capsys):
+    from vto_core.imageio import resize
+
+    whole = read_image(portrait)[0]
+    canvas = np.full((560, 1000, 3), 0.5, np.float32)
+    canvas[24:536, 20:532] = whole
+    canvas[100:420, 560:880] = resize(whole, 320, 320)  # the smaller face, on the right
+    write_image(tmp_path / "two.png", canvas)
+    assert cli.run(["match", "--model", models[0], "--image", str(tmp_path / "two.png"), "--out-params",
+                    str(tmp_path / "p.json")]) == 0
+    captured = capsys.readouterr()
+    x = json.loads(captured.out.strip().splitlines()[-1])["lips"]["box"][0]
+    assert 20 + 190 <= x <= 20 + 215 and "2 faces found: the largest is used" in captured.err
+
+
+def test_better_on_an_image_taken_whole_has_no_lips_to_fit(models, reference):
+    with pytest.raises(VtoError, match="needs to know where they are"):
+        match(models[0], reference, quality="better", find_lips=False)
 
 
 def test_match_and_render_search_load_without_torch_or_training():

@@ -123,8 +123,22 @@ def expected_estimate(image: np.ndarray, model: str = MODEL) -> dict[str, float]
     return {name: values[name] for name in session.spec.modelled}
 
 
+def fast_estimate(image: np.ndarray, lips: np.ndarray, model: str = MODEL) -> dict[str, float]:
+    """Fast on a reference whose lips are known: the encoder's estimate fitted through the colour imitator."""
+    from blender_addon.photo_fit import fit_photo_fast
+
+    session = EncoderSession(model)
+    image = np.ascontiguousarray(image)
+    return fit_photo_fast(session.spec, (image, lips), expected_estimate(image, model))[0]
+
+
 def run_match(**kwargs):
-    """The operator as a script calls it: ({'FINISHED'}, None) or ({'CANCELLED'}, the one error line)."""
+    """The operator as a script calls it: ({'FINISHED'}, None) or ({'CANCELLED'}, the one error line).
+
+    These tests check Match's mechanics on small made-up references that are not lips, so lipstick takes them as
+    they are (find_lips off) unless a test asks otherwise; test_a_portrait_is_matched_at_its_lips finds lips."""
+    if kwargs.get("target", "MATERIAL") == "MATERIAL":
+        kwargs.setdefault("find_lips", False)
     try:
         return bpy.ops.vto.match_from_photo(**kwargs), None
     except RuntimeError as exc:
@@ -281,7 +295,7 @@ BAD = [
     ({"model_path": "{tmp}/foreign.onnx"}, "not a VTO encoder"),
     ({"model_path": "{tmp}/hair.onnx"}, "estimates hair parameters, not lipstick"),
     ({"model_path": "{tmp}/other_spec.onnx"}, "made for another lipstick spec: its 'red' spans [0, 1]"),
-    ({"quality": "BETTER"}, "a photo of a real face has none"),
+    ({"quality": "BETTER"}, "needs to know where they are"),
     ({"crop": (20, 20, 10, 10)}, "does not fit the 24x24 image"),
     ({"mask_path": "{tmp}/none.png"}, "no mask image at"),
     ({"material": "No Such Material"}, "no material 'No Such Material'"),
@@ -339,9 +353,11 @@ def test_unusual_but_valid_images_are_matched(name, material, odd_files):
 
 
 def test_nan_pixels_are_read_as_zero_with_a_warning(odd_files):
-    job = apply.MatchJob("lipstick", {"image_path": str(odd_files / "nan.exr")}, material_name=new_material())
+    job = apply.MatchJob("lipstick", {"image_path": str(odd_files / "nan.exr"), "find_lips": False},
+                         material_name=new_material())
     assert job.warnings == [f"{odd_files / 'nan.exr'}: 18 NaN or infinite pixel(s) read as 0 (NaN, -inf) or 1 (+inf)"]
-    assert np.isfinite(job.prepared["reference"]).all() and (job.prepared["reference"][2:5, 3:9] == 0).all()
+    image = job.prepared["reference"].image
+    assert np.isfinite(image).all() and (image[2:5, 3:9] == 0).all()
 
 
 def new_material() -> str:
@@ -362,7 +378,7 @@ def test_crop_in_pixels_or_fractions_and_an_image_datablock(material, reference)
     assert run_match(material=material, image_path=reference,
                      mask_path=str(Path(reference).with_name("lips_mask.png")))[0] == {"FINISHED"}
     after = inputs_of(material)
-    framed = expected_estimate(np.ascontiguousarray(image[4:20, 0:16]))  # 12 px of lips = 0.78 of a 16 px square
+    framed = fast_estimate(image[4:20, 0:16], mask[4:20, 0:16])  # 12 px of lips = 0.78 of a 16 px square
     assert {n: after[n] for n in framed} == pytest.approx(framed, abs=1e-4) != expected
     # an image already in the .blend (no file behind it): byte pixels are display values
     pixels = gradient_image(16, 16)
@@ -413,20 +429,61 @@ def test_hair_fast_and_better_write_the_compositor_groups(tmp_path):
                 if p.socket in n.inputs}
 
     with bpy.context.temp_override(scene=scene):
-        result, error = run_match(target="HAIR", image_path=str(tmp_path / "photo.png"), model_path=model,
-                                  quality="BETTER")
-        assert result == {"CANCELLED"} and "needs its hair mask" in error
         assert run_match(target="HAIR", image_path=str(tmp_path / "photo.png"), model_path=model) == ({"FINISHED"},
                                                                                                       None)
         fast = values()
-        assert fast == pytest.approx(expected_estimate(load_reference(str(tmp_path / "photo.png")), model), abs=1e-4)
+        estimate = expected_estimate(load_reference(str(tmp_path / "photo.png")), model)
+        assert fast == pytest.approx({**estimate, "intensity": 1.0, "blend": -1.0}, abs=1e-4)  # a photo: full effect
         assert run_match(target="HAIR", image_path=str(tmp_path / "photo.png"), model_path=model, quality="BETTER",
                          mask_path=str(tmp_path / "photo_mask.png"))[0] == {"FINISHED"}
     better = values()
     assert better != fast and hair.check_values(better) == pytest.approx(better)
-    # the photo is its own source: intensity and blend could undo the stage, so the search holds them and the
-    # encoder's values stand
-    assert {k: better[k] for k in ("intensity", "blend")} == pytest.approx({k: fast[k] for k in ("intensity", "blend")})
+    assert (better["intensity"], better["blend"]) == (1.0, -1.0)
+
+
+@pytest.fixture(scope="module")
+def portrait(tmp_path_factory):
+    """scikit-image's astronaut portrait (public domain, NASA), whole."""
+    import skimage.data
+
+    path = tmp_path_factory.mktemp("portrait") / "astronaut.png"
+    write_image(path, skimage.data.astronaut().astype(np.float32) / 255)
+    return str(path)
+
+
+def test_a_portrait_is_matched_at_its_lips_and_better_leaves_nothing_behind(material, portrait):
+    from blender_addon import thumbnail
+    from blender_addon.reference import read_reference
+
+    framed = read_reference("lipstick", {"image_path": portrait})
+    assert run_match(material=material, image_path=portrait, find_lips=True) == ({"FINISHED"}, None)
+    fast = inputs_of(material)
+    expected = fast_estimate(*framed.region)
+    assert {n: fast[n] for n in SPEC.modelled} == pytest.approx(expected, abs=1e-4)
+    assert expected != pytest.approx(expected_estimate(framed.image), abs=1.0)  # the colour fit moved the encoder's
+    reference = read_reference("lipstick", {"image_path": portrait})
+    canvas = thumbnail.compose(reference.whole, None, None, reference.lips)  # what the panel's thumbnail shows
+    rows, cols = np.nonzero(np.all(np.isclose(canvas[..., :3], thumbnail.LIPS_COLOUR), axis=-1))
+    x, y, w, h = (v * thumbnail.SIZE / 512 for v in reference.lips.box)
+    assert len(rows) > 20 and x - 2 <= cols.mean() - w / 2 <= x + 2 and y - 3 <= rows.mean() - h / 2 <= y + 3
+    before = {kind: set(getattr(bpy.data, kind).keys()) for kind in ("scenes", "objects", "images", "node_groups")}
+    assert run_match(material=material, image_path=portrait, find_lips=True, quality="BETTER") == ({"FINISHED"},
+                                                                                                  None)
+    better = inputs_of(material)
+    assert better != fast and LIPSTICK.check_values(better) == pytest.approx(better)
+    assert {kind: set(getattr(bpy.data, kind).keys()) for kind in before} == before  # the fit's scenes are gone
+
+
+def test_the_thumbnail_outlines_the_lips_found():
+    from blender_addon.thumbnail import LIPS_COLOUR, compose
+    from vto_core.lips_locator import close_up
+
+    picture = np.full((64, 64, 3), 0.5, np.float32)
+    lips = close_up((64, 64), (0.78, 0.4, 0.5, 0.5), 1.0, "")
+    canvas = compose(picture, None, None, lips)
+    cyan = np.all(np.isclose(canvas[..., :3], LIPS_COLOUR), axis=-1)
+    rows, cols = np.nonzero(cyan)
+    assert cyan.sum() > 100 and abs(cols.mean() - 64) < 6 and abs(rows.mean() - 64) < 6  # the lens, centred
 
 
 # --- `vto match --material NAME --save` -------------------------------------------------------------------------
@@ -451,7 +508,8 @@ def vto(*argv):
 def test_cli_material_save_writes_the_estimate_into_the_blend(blend, material, reference):
     before = digest(blend)
     out = blend.parent / "params.json"
-    done = vto("--material", material, "--image", reference, "--blend", str(blend), "--save", "--out-params", str(out))
+    done = vto("--material", material, "--image", reference, "--whole-image", "--blend", str(blend), "--save",
+               "--out-params", str(out))
     assert done.returncode == 0, done.stderr[-800:]
     printed = json.loads(done.stdout.strip().splitlines()[-1])
     expected = expected_estimate(load_reference(reference))
@@ -480,7 +538,7 @@ def test_cli_inside_blender_uses_the_open_file(blend, material, reference):
     child = ("import bpy, sys; bpy.ops.wm.open_mainfile(filepath=sys.argv[1]); import blender_addon; "
              "blender_addon.register(); sys.exit(blender_addon.run_cli(sys.argv[2:]))")
     done = subprocess.run([sys.executable, "-c", child, str(blend), "match", "--material", material, "--image",
-                           reference, "--save"], capture_output=True, text=True, cwd=ROOT)
+                           reference, "--whole-image", "--save"], capture_output=True, text=True, cwd=ROOT)
     assert done.returncode == 0, done.stderr[-800:]
     expected = expected_estimate(load_reference(reference))
     stored = saved_values(blend, material)
@@ -496,12 +554,12 @@ def test_cli_inside_blender_uses_the_open_file(blend, material, reference):
     (["--material", "Nope"], "no material 'Nope'"),
     (["--material", "Plain"], "does not use the 'VTO Lipstick' node group"),
     (["--crop", "1,2,3"], "--crop takes x,y,w,h"),
-    (["--refine", "render:5"], "--material takes the encoder's estimate only"),
+    (["--refine", "render:5"], "--material takes --quality"),
     (["--save", None], "add --save"),
 ])
 def test_cli_bad_input_is_one_line_and_leaves_the_blend_byte_identical(argv, message, blend, material, reference,
                                                                        odd_files):
-    args = {"--material": material, "--image": reference, "--blend": str(blend), "--save": ""}
+    args = {"--material": material, "--image": reference, "--blend": str(blend), "--save": "", "--whole-image": ""}
     args.update(zip(argv[::2], (a.replace("{tmp}", str(odd_files)) if a else a for a in argv[1::2])))
     if args["--material"] == "Plain":
         child = ("import bpy, sys; bpy.ops.wm.open_mainfile(filepath=sys.argv[1]); "
@@ -549,8 +607,9 @@ def test_the_panels_draw_every_control_and_the_last_estimate(material, reference
     bpy.types.VTO_PT_match_material.draw(SimpleNamespace(layout=FakeLayout(log)), context)
     shown = {entry[1] for entry in log if entry[0] == "prop"}
     assert {"image_path", "use_crop", "mask_path", "model_path"} <= shown
-    assert ("enum", "FAST", True) in log and ("enum", "BETTER", False) in log and ("enum", "BEST", False) in log
-    assert any("for hair photos only" in entry[1] for entry in log if entry[0] == "label")
+    assert {"find_lips"} <= shown
+    assert ("enum", "FAST", True) in log and ("enum", "BETTER", True) in log and ("enum", "BEST", True) in log
+    assert any(entry[1] == "Fast: no render, milliseconds" for entry in log if entry[0] == "label")
     assert ("operator", "vto.match_from_photo") in log
     assert run_match(material=material, image_path=reference)[0] == {"FINISHED"}
     log.clear()
@@ -566,7 +625,8 @@ def test_the_panels_draw_every_control_and_the_last_estimate(material, reference
 
 
 def test_invoke_in_background_is_execute_and_refinement_reports_progress(material, reference, tmp_path):
-    assert bpy.ops.vto.match_from_photo("INVOKE_DEFAULT", material=material, image_path=reference) == {"FINISHED"}
+    assert bpy.ops.vto.match_from_photo("INVOKE_DEFAULT", material=material, image_path=reference,
+                                        find_lips=False) == {"FINISHED"}
     expected = expected_estimate(load_reference(reference))
     assert {n: inputs_of(material)[n] for n in expected} == pytest.approx(expected, abs=1e-4)
     hair = get_spec("hair")
@@ -580,7 +640,7 @@ def test_invoke_in_background_is_execute_and_refinement_reports_progress(materia
     result = apply.match_into_hair(scene, {"image_path": str(tmp_path / "photo.png"), "quality": "BETTER",
                                            "mask_path": str(tmp_path / "mask.png"), "crop": None,
                                            "model_path": tiny_encoder(tmp_path / "hair.onnx", hair)}, seen.append)
-    assert seen == list(range(1, 26))  # one update per render of Better's 25
+    assert seen == list(range(2, 101, 2))  # an update per step of Better's fit: 2 default regions, 100 renders
     assert hair.check_values(result["values"]) == pytest.approx(hair.full_values(result["values"]))
 
 
@@ -622,7 +682,7 @@ def test_the_modal_refinement_writes_only_at_the_end_and_esc_changes_nothing(tmp
         return {s.name: s.default_value for n in apply.hair_nodes(scene) for s in n.inputs if s.name in before}
 
     cancelled = Modal()
-    assert cancelled.modal(context, SimpleNamespace(type="TIMER")) == {"RUNNING_MODAL"} and progress == [1]
+    assert cancelled.modal(context, SimpleNamespace(type="TIMER")) == {"RUNNING_MODAL"} and progress == [2]
     assert cancelled.modal(context, SimpleNamespace(type="MOUSEMOVE")) == {"PASS_THROUGH"}  # the UI keeps working
     assert cancelled.modal(context, SimpleNamespace(type="ESC")) == {"CANCELLED"} and ended == [True]
     assert values() == before and scene.vto_hair_match.last_estimate == ""
@@ -631,6 +691,6 @@ def test_the_modal_refinement_writes_only_at_the_end_and_esc_changes_nothing(tmp
     while (state := running.modal(context, SimpleNamespace(type="TIMER"))) == {"RUNNING_MODAL"}:
         ticks += 1
         assert values() == before  # nothing written while it runs
-    assert state == {"FINISHED"} and ticks == 25 and progress == list(range(1, 26))
+    assert state == {"FINISHED"} and ticks == 50 and progress == list(range(2, 101, 2))
     assert values() != before and json.loads(scene.vto_hair_match.last_estimate)["renderer"] == "hair"
     assert running.reports[-1][0] == {"INFO"} and running.reports[-1][1].startswith("matched the compositor")

@@ -43,3 +43,41 @@ def test_the_default_scene_frames_its_lips_as_lips_frame_does():
     for source in range(8):
         x, y, w, h = lips_frame(lips_mask(source, 128))
         assert 0.85 * 128 <= w <= 128, (source, w)
+
+
+def test_a_hair_mask_gives_the_encoder_its_largest_square_and_the_fit_all_of_it():
+    from blender_addon.reference import HAIR_SQUARE_SHARE, hair_reference
+
+    whole = np.random.default_rng(0).random((60, 90, 3)).astype(np.float32)
+    mask = mask_with_box(60, 90, slice(10, 50), slice(20, 80))  # 40 x 60 of hair
+    reference = hair_reference(whole, mask=mask)
+    x, y, side, _ = reference.box
+    assert side >= 40 and mask[y:y + side, x:x + side].mean() >= HAIR_SQUARE_SHARE  # the largest square that is hair
+    assert np.array_equal(reference.image, whole[y:y + side, x:x + side])
+    rgb, region = reference.region
+    assert rgb.shape == whole.shape and np.array_equal(region, mask)  # Better and Best read all the hair
+    cropped = hair_reference(whole, crop=(20, 10, 30, 30))  # a patch: all of it is hair
+    assert cropped.box == (20, 10, 30, 30) and cropped.region[1].all()
+
+
+def test_hair_masks_too_thin_or_empty_are_one_line_errors():
+    from blender_addon.reference import hair_reference
+    from vto_core.errors import VtoError
+
+    whole = np.zeros((40, 40, 3), np.float32)
+    with pytest.raises(VtoError, match="no 8x8 px square of hair"):
+        hair_reference(whole, mask=mask_with_box(40, 40, slice(0, 40), slice(10, 14)))
+    with pytest.raises(VtoError, match="no hair inside the crop"):
+        hair_reference(whole, crop=(0, 0, 10, 10), mask=mask_with_box(40, 40, slice(20, 40), slice(20, 40)))
+
+
+def test_a_lips_mask_frames_the_reference_and_is_its_region_and_whole_image_takes_it_as_it_is():
+    from blender_addon.reference import lips_reference
+
+    whole = np.random.default_rng(1).random((100, 100, 3)).astype(np.float32)
+    mask = mask_with_box(100, 100, slice(40, 50), slice(30, 70))
+    framed = lips_reference(whole, mask=mask)
+    assert framed.box == (24, 19, 52, 52) and framed.lips is None and framed.notes == []
+    assert np.array_equal(framed.region[1], mask[19:71, 24:76])
+    plain = lips_reference(whole, find_lips=False)
+    assert plain.box == (0, 0, 100, 100) and plain.region is None and np.array_equal(plain.image, whole)

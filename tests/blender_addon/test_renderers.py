@@ -221,3 +221,34 @@ def test_a_photo_with_its_mask_is_a_hair_source(tmp_path, hair_sources):
         render("hair", values, str(tmp_path / "no_mask.png"), RES, SAMPLES)
     with pytest.raises(VtoError, match="holds no photo"):
         photo_sources(tmp_path / "empty") if (tmp_path / "empty").mkdir() is None else None
+
+
+def test_the_default_hair_source_is_a_region_of_strands_and_the_portrait_a_whole_head():
+    from blender_addon.hair import render_hair_source
+    from blender_addon.scene_hair import POINTS_PER_STRAND, STRANDS, strand_positions
+
+    points = strand_positions(np.random.default_rng([3, 0x4A12]))
+    assert points.shape == (STRANDS * POINTS_PER_STRAND, 3) and np.isfinite(points).all()
+    shares = [render_hair_source(seed, 32, 4).mask.mean() for seed in range(4)]
+    assert np.median(shares) > 0.95, shares  # the close-up a patch of hair is cut from
+    portrait = render_hair_source(0, 32, 4, view="portrait")
+    assert 0.1 < portrait.mask.mean() < 0.7  # a head: hair, face and background
+    with pytest.raises(VtoError, match="region or portrait"):
+        render_hair_source(0, 16, 1, view="side")
+
+
+def test_a_blender_without_openimagedenoise_renders_undenoised():
+    """Debian's Blender 4.3 has no OpenImageDenoise: setting it raises TypeError, and renders go on without it."""
+    from types import SimpleNamespace
+
+    from blender_addon.render import set_render_quality
+
+    class NoDenoiser(SimpleNamespace):
+        def __setattr__(self, name, value):
+            if name == "denoiser":
+                raise TypeError('bpy_struct: item.attr = val: enum "OPENIMAGEDENOISE" not found in ()')
+            super().__setattr__(name, value)
+
+    scene = SimpleNamespace(cycles=NoDenoiser())
+    set_render_quality(scene, 8, 3)
+    assert scene.cycles.use_denoising is False and scene.cycles.samples == 8 and scene.cycles.seed == 3

@@ -252,3 +252,30 @@ def test_recolour_rejects_non_finite_parameter():
 def test_recolour_rejects_wrong_last_axis():
     with pytest.raises(VtoError):
         recolour(np.zeros((4, 4)))
+
+
+# Sharma, Wu and Dalal (2005), "The CIEDE2000 colour-difference formula": test pairs 1, 7, 17 and 25.
+SHARMA_PAIRS = [((50.0, 2.6772, -79.7751), (50.0, 0.0, -82.7485), 2.0425),
+                ((50.0, 0.0, 0.0), (50.0, -1.0, 2.0), 2.3669),
+                ((50.0, 2.5, 0.0), (73.0, 25.0, -18.0), 27.1492),
+                ((60.2574, -34.0099, 36.2677), (60.4626, -34.1751, 39.4387), 1.2644)]
+
+
+@pytest.mark.parametrize("lab1, lab2, expected", SHARMA_PAIRS)
+def test_ciede2000_matches_sharmas_reference_pairs(lab1, lab2, expected):
+    from vto_core.colour import ciede2000
+
+    assert ciede2000(np.array(lab1), np.array(lab2)) == pytest.approx(expected, abs=1e-4)
+    assert ciede2000(np.array(lab2), np.array(lab1)) == pytest.approx(expected, abs=1e-4)
+
+
+def test_srgb_to_lab_known_values_and_extremes():
+    from vto_core.colour import srgb_to_lab
+
+    lab = srgb_to_lab(np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [1.0, 0.0, 0.0], [0.5, 0.5, 0.5]]))
+    np.testing.assert_allclose(lab[0], [0.0, 0.0, 0.0], atol=1e-3)
+    np.testing.assert_allclose(lab[1], [100.0, 0.0, 0.0], atol=1e-2)
+    np.testing.assert_allclose(lab[2], [53.24, 80.09, 67.20], atol=0.02)  # sRGB red, D65
+    np.testing.assert_allclose(lab[3], [53.39, 0.0, 0.0], atol=0.02)
+    hdr = srgb_to_lab(np.array([[np.nan, np.inf, -np.inf], [1e30, 2.0, 0.5]]))
+    assert np.isfinite(hdr).all()

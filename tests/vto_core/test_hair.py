@@ -163,3 +163,26 @@ def test_non_finite_source_is_refused():
     source[0, 0, 1] = np.nan  # outside the hair, but the whole image goes through the stage
     with pytest.raises(VtoError, match="NaN or inf"):
         render_hair_reference(source, mask, swatch, get_spec("hair").full_values({}))
+
+
+def test_hair_square_finds_the_largest_square_of_hair_nearest_the_centre():
+    from vto_core.hair import hair_square
+
+    mask = np.zeros((40, 60))
+    mask[5:35, 10:50] = 1.0  # a 30 x 40 block: the largest square is 30, centred in x
+    assert hair_square(mask, 1.0) == (15, 5, 30)
+    mask[20, 30] = 0.0  # one hole: at share 1 the square must avoid it, at 0.98 it may not
+    x, y, side = hair_square(mask, 1.0)
+    assert side < 30 and mask[y:y + side, x:x + side].all()
+    assert hair_square(mask, 0.98)[2] == 30
+
+
+def test_hair_square_is_none_for_thin_or_empty_masks():
+    from vto_core.hair import hair_square
+
+    assert hair_square(np.zeros((20, 20))) is None
+    thin = np.zeros((20, 20))
+    thin[:, 5:9] = 1.0  # 4 px wide: no 8 px square
+    assert hair_square(thin) is None
+    assert hair_square(np.ones((20, 20)), smallest=0.5) == (0, 0, 20)
+    assert hair_square(np.full((10, 10), np.nan)) is None

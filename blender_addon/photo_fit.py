@@ -1,0 +1,199 @@
+"""Better and Best for a photo whose scene is unknown: fit what the photo shows of the material through the real
+renderer on default-scene sources.
+
+A photo of real lips (or of an artist's reference hair) has no source X to render the estimate on, so the render
+cannot be compared with it pixel by pixel. What can be compared is the region's colour statistics
+(vto_core.appearance: its mean colour, the spread of its lightness up to the highlights, its chroma): the fit
+(blender_addon.refine, Levenberg-Marquardt from the encoder's estimate) moves the parameters until the default scene's
+lips (or hair) show the photo's statistics, averaged over a few default sources. Those sources are seeds of their own
+(FIT_SOURCES), never the ones the benchmarks measure the estimate on.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from vto_core.dataset import DEFAULT_SAMPLES
+from vto_core.errors import VtoError
+from vto_core.specs import RendererSpec
+
+# Default-scene seeds the fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up. Lips: a pool
+# the fit picks the sources whose skin is most like the photo's from; hair: its sources in order.
+LIPS_POOL = tuple(range(900001, 900025))
+FIT_SOURCES = (900001, 900002, 900003, 900004)
+MAX_GAIN = 4.0  # the exposure gain that lights a source's skin as the photo's: at most 2 stops either way
+QUALITIES = ("FAST", "BETTER", "BEST")
+NO_REGION = ("fits the colour of the lips and needs to know where they are: let the add-on find them (Find Lips), or "
+             "give a mask")  # the panel's choice: the encoder alone, or the fit with FIT_QUALITY's renders
+# Quality -> (sources, renders in all). Lipstick renders cost ~0.15 s at 64 px; the hair stage ~10 ms a source.
+FIT_QUALITY = {"lipstick": {"BETTER": (1, 25), "BEST": (2, 100)}, "hair": {"BETTER": (2, 100), "BEST": (4, 400)}}
+# Seconds each takes on a 2-core CPU, what the panel tells the artist: the median over the real photos of
+# benchmarks/results/real_photos.md, rounded up. The first fit of a session also renders its default sources.
+FIT_SECONDS = {"lipstick": {"BETTER": 2, "BEST": 10}, "hair": {"BETTER": 2, "BEST": 6}}
+FIT_RES = 64
+# A photo's hair is given the stage at full effect on all the hair: intensity 1 (the photo's colour, not a mix with
+# the artist's own) and blend -1 (no fade). Those are the spec's defaults, and the fit holds them there.
+PHOTO_HAIR = {"intensity": 1.0, "blend": -1.0}
+# The statistics leave looks ambiguous (a thin white layer with a strong coat can show the lips' colour too): each
+# unit of distance from the encoder's estimate costs this many CIELAB units, so the fit keeps the encoder's reading
+# where the photo does not ask for another. Hair statistics depend on the swatch alone (the stage matches the hair's
+# histogram to it), not on a scene: a weaker pull lets the fit go further.
+PRIOR_WEIGHT = {"lipstick": 8.0, "hair": 2.0}
+
+
+def parameter_difference(unit: np.ndarray, start: np.ndarray, wraps: np.ndarray) -> np.ndarray:
+    """unit - start (m,), wrapping dimensions (hue) the short way round the circle."""
+    difference = np.asarray(unit, np.float64) - np.asarray(start, np.float64)
+    return np.where(wraps, (difference + 0.5) % 1.0 - 0.5, difference)
+
+
+@functools.lru_cache(maxsize=16)
+def _hair_region(source: int, res: int, samples: int):
+    from .hair import render_hair_source
+
+    return render_hair_source(source, res, samples, 0)
+
+
+def region_renderer(renderer: str, source: int, res: int = FIT_RES,
+                    samples: int = DEFAULT_SAMPLES) -> Callable[[dict[str, float]], tuple[np.ndarray, np.ndarray]]:
+    """values -> (render (res, res, 3), its region mask (res, res)) on default-scene `source`: the lips, or the hair
+    of a hair region (rendered once per process)."""
+    if renderer == "lipstick":
+        from .lipstick import render_lipstick
+        from .scene_lips import lips_mask
+
+        mask = lips_mask(source, res)
+        return lambda values: (render_lipstick(values, source, res, samples, 0), mask)
+    from .hair import run_hair_stage
+
+    hair = _hair_region(source, res, samples)
+    return lambda values: (run_hair_stage(hair, values), hair.mask)
+
+
+def photo_values(spec: RendererSpec, values: dict[str, float]) -> dict[str, float]:
+    """The values with what a photo fixes: for hair, full effect (PHOTO_HAIR)."""
+    return {**values, **PHOTO_HAIR} if spec.renderer == "hair" else dict(values)
+
+
+@functools.lru_cache(maxsize=4)
+def _lips_pool(res: int, samples: int) -> tuple:
+    """The lipstick fit's candidate sources: (seed, lips mask, skin light (vto_core.appearance.skin_light)) each."""
+    from vto_core.appearance import skin_light
+
+    from .lipstick import render_lipstick
+    from .scene_lips import lips_mask
+
+    pool = []
+    for seed in LIPS_POOL:
+        mask = lips_mask(seed, res)
+        pool.append((seed, mask, skin_light(render_lipstick({"opacity": 0.0}, seed, res, samples, 0), mask)))
+    return tuple(pool)
+
+
+def lips_fit_sources(region: tuple[np.ndarray, np.ndarray], count: int, res: int, samples: int) -> list:
+    """The `count` default lips sources whose skin looks most like the photo's (CIEDE2000 of the skin around the
+    lips), each with the exposure gain that lights its skin as the photo's is lit: [(render fn, gain)]."""
+    from vto_core.appearance import skin_light
+    from vto_core.colour import ciede2000
+
+    light = skin_light(*region)
+    pool = _lips_pool(res, samples)
+    if light is None:  # a close crop shows no skin: the first sources, unscaled
+        chosen = [(seed, 1.0) for seed, _, _ in pool[:count]]
+    else:
+        order = np.argsort([ciede2000(light[1], skin[1]) for _, _, skin in pool])
+        chosen = [(pool[i][0], float(np.clip(light[0] / pool[i][2][0], 1 / MAX_GAIN, MAX_GAIN))) for i in order[:count]]
+    return [(region_renderer("lipstick", seed, res, samples), gain) for seed, gain in chosen]
+
+
+def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float], quality: str,
+                   res: int = FIT_RES, samples: int = DEFAULT_SAMPLES):
+    """Fit the modelled parameters so the default scene's lips (or hair) show the colour statistics
+    (vto_core.appearance.region_statistics) of `region` (the photo (H, W, 3) and its lips or hair mask (H, W)), from
+    `start` (modelled raw values), with the sources and renders of FIT_QUALITY[renderer][quality].
+
+    Lips: the sources are those of LIPS_POOL whose skin looks most like the photo's, each render scaled by the gain
+    that lights its skin as the photo's skin is lit (a scene whose light and skin tone are fitted, as far as the skin
+    shows them). Hair: FIT_SOURCES' hair regions, as rendered.
+    A generator: yields renders made so far; returns the fitted modelled values (raw, inside their ranges).
+    """
+    from vto_core.appearance import region_statistics
+    from vto_core.colour import linear_to_srgb, srgb_to_linear
+
+    from .refine import iter_refine_by_render
+
+    table = FIT_QUALITY[spec.renderer]
+    if quality not in table:
+        raise VtoError(f"a photo fit's quality is {' or '.join(table)}, got '{quality}'")
+    count, renders = table[quality]
+    if spec.renderer == "lipstick":
+        sources = lips_fit_sources(region, count, res, samples)
+    else:
+        sources = [(region_renderer(spec.renderer, seed, res, samples), 1.0) for seed in FIT_SOURCES[:count]]
+    unit = spec.normalise(spec.vector(photo_values(spec, start)))
+    wraps = np.array([p.wraps for p in spec.modelled_params])
+
+    def shown(render, gain: float, values: dict[str, float]) -> np.ndarray:
+        rgb, mask = render(values)
+        return region_statistics(rgb if gain == 1.0 else linear_to_srgb(srgb_to_linear(rgb) * gain), mask)
+
+    def statistics_at(trial: np.ndarray) -> np.ndarray:
+        values = spec.values(spec.denormalise(trial))
+        seen = np.mean([shown(render, gain, values) for render, gain in sources], axis=0)
+        return np.concatenate([seen, PRIOR_WEIGHT[spec.renderer] * parameter_difference(trial, unit, wraps)])
+
+    held = {i: float(unit[i]) for i, name in enumerate(spec.modelled) if spec.renderer == "hair" and name in PHOTO_HAIR}
+    target = np.concatenate([region_statistics(*region), np.zeros(spec.size)])
+    steps = iter_refine_by_render(statistics_at, target, unit, renders // count, wraps=wraps, held=held, search="fit")
+    while True:
+        try:
+            yield count * next(steps)
+        except StopIteration as done:
+            fitted = spec.values(spec.denormalise(done.value.unit))
+            return {name: float(fitted[name]) for name in spec.modelled}
+
+
+def colour_imitator_path(renderer: str) -> Path:
+    """The shipped colour imitator of `renderer`: blender_addon/models/<renderer>_colour.onnx."""
+    return Path(__file__).parent / "models" / f"{renderer}_colour.onnx"
+
+
+def fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
+                   imitator_path: Path | None = None) -> tuple[dict[str, float], str]:
+    """Fast's fit: the modelled values (raw) near `start` whose default-scene statistics, as the colour imitator
+    (vto_core.colour_imitator) predicts them, are the photo region's; milliseconds, no render. Returns them and a
+    note: where no imitator for this spec exists the encoder's estimate stands, and the note says so."""
+    from vto_core.appearance import region_statistics, skin_light
+    from vto_core.colour_imitator import cached_imitator
+
+    path = colour_imitator_path(spec.renderer) if imitator_path is None else Path(imitator_path)
+    if not path.is_file():
+        return dict(start), f"no colour imitator at {path}: Fast is the encoder's estimate"
+    imitator = cached_imitator(path)
+    if not imitator.spec.same_as(spec):
+        return dict(start), (f"{path.name} imitates other parameters than the model estimates: Fast is the "
+                             "encoder's estimate")
+    light = skin_light(*region) if imitator.typical_skin is not None else None
+    target = region_statistics(*region)
+    unit = spec.normalise(spec.vector(photo_values(spec, start)))
+    held = {i: float(unit[i]) for i, name in enumerate(spec.modelled) if spec.renderer == "hair" and name in PHOTO_HAIR}
+    wraps = np.array([p.wraps for p in spec.modelled_params])
+    found = imitator.fit(target, unit, PRIOR_WEIGHT[spec.renderer], wraps, held, None if light is None else light[1])
+    fitted = spec.values(spec.denormalise(found))
+    return {name: float(fitted[name]) for name in spec.modelled}, ""
+
+
+def apparent_colour(renderer: str, values: dict[str, float], sources=range(8), res: int = FIT_RES,
+                    samples: int = DEFAULT_SAMPLES) -> dict[str, np.ndarray]:
+    """The colour an estimate gives the default scene, as the real-photo benchmark reads it: over default `sources`,
+    the median of its region's mean colour ('mean') and of its per-channel median colour ('body', without highlights
+    and shadows) in the render of `values` (all parameters); each (3,) display values in [0, 1]."""
+    from vto_core.appearance import body_colour, mean_colour
+
+    regions = [region_renderer(renderer, source, res, samples)(values) for source in sources]
+    return {"mean": np.median([mean_colour(*region) for region in regions], axis=0),
+            "body": np.median([body_colour(*region) for region in regions], axis=0)}

@@ -1,0 +1,98 @@
+"""Better and Best without the photo's source (blender_addon.photo_fit): the colour statistics of the lips or hair
+fitted through the real renderer on default sources; and nothing of it is left in the .blend (blender_addon.scratch)."""
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.blender
+bpy = pytest.importorskip("bpy")
+
+from blender_addon.hair import render_hair_source, run_hair_stage  # noqa: E402
+from blender_addon.lipstick import render_lipstick  # noqa: E402
+from blender_addon.photo_fit import (FIT_QUALITY, LIPS_POOL, PHOTO_HAIR, apparent_colour, iter_fit_photo,  # noqa: E402
+                                     lips_fit_sources, photo_values)
+from blender_addon.refine import drain  # noqa: E402
+from blender_addon.scene_lips import lips_mask  # noqa: E402
+from blender_addon.scratch import scratch_data  # noqa: E402
+from vto_core.appearance import mean_colour  # noqa: E402
+from vto_core.colour import ciede2000, srgb_to_lab  # noqa: E402
+from vto_core.errors import VtoError  # noqa: E402
+from vto_core.specs import get_spec  # noqa: E402
+
+RES = 32
+
+
+def delta_e(a, b):
+    return float(ciede2000(srgb_to_lab(a), srgb_to_lab(b)))
+
+
+def test_the_hair_fit_gives_the_default_hair_the_photos_colour_from_a_far_start():
+    """A photo of hair: a hair region (source 7) recoloured to a light ash blonde. From the mean preset's swatch, the
+    Better fit brings the default regions' hair to the photo's colour."""
+    spec = get_spec("hair")
+    photo = render_hair_source(7, RES, 8)
+    truth = {"brightness": 0.2, "exposure": 1.6, "gamma": 1.8, "saturation": 0.5}
+    region = (run_hair_stage(photo, truth), photo.mask)
+    start = {name: spec.by_name[name].default for name in spec.modelled}
+    before = delta_e(mean_colour(*region), apparent_colour("hair", spec.full_values(start), [900001], RES, 8)["mean"])
+    renders = []
+    fitted = drain(iter_fit_photo(spec, region, start, "BETTER", RES, 8), renders.append)
+    after = delta_e(mean_colour(*region), apparent_colour("hair", photo_values(spec, fitted), [900001], RES, 8)["mean"])
+    assert before > 15 and after < 3, (before, after)
+    assert renders[-1] == FIT_QUALITY["hair"]["BETTER"][1] and renders == sorted(renders)
+    assert set(fitted) == set(spec.modelled)
+
+
+def test_a_photo_fixes_the_hair_stage_at_full_effect():
+    spec = get_spec("hair", "hue,saturation,intensity,blend")
+    assert photo_values(spec, {"hue": 0.2, "intensity": 0.3, "blend": 0.5}) == {"hue": 0.2, **PHOTO_HAIR}
+    assert photo_values(get_spec("lipstick"), {"red": 9.0}) == {"red": 9.0}
+    photo = render_hair_source(7, RES, 8)
+    region = (run_hair_stage(photo, {"hue": 0.5}), photo.mask)
+    fitted = drain(iter_fit_photo(spec, region, {"hue": 0.1, "intensity": 0.2, "blend": 0.9}, "BETTER", RES, 8))
+    assert (fitted["intensity"], fitted["blend"]) == pytest.approx((1.0, -1.0))  # held at full effect while fitting
+
+
+def test_the_lips_fit_picks_sources_with_the_photos_skin_and_moves_towards_its_colour():
+    spec = get_spec("lipstick")
+    source = 11  # not in the pool
+    truth = {"opacity": 0.95, "red": 200.0, "green": 60.0, "blue": 110.0, "gloss": 1.0, "reflection": 0.1}
+    mask = lips_mask(source, RES)
+    region = (render_lipstick(truth, source, RES, 8, 0), mask)
+    chosen = lips_fit_sources(region, 2, RES, 8)
+    assert len(chosen) == 2 and all(0.25 <= gain <= 4.0 for _, gain in chosen)
+    start = {**truth, "red": 120.0, "green": 120.0, "blue": 60.0}  # an olive guess
+    fitted = drain(iter_fit_photo(spec, region, start, "BETTER", RES, 8))
+    before = np.abs(np.array([start[c] - truth[c] for c in ("red", "green", "blue")])).mean()
+    after = np.abs(np.array([fitted[c] - truth[c] for c in ("red", "green", "blue")])).mean()
+    assert after < 0.5 * before, (before, after, fitted)
+    assert all(spec.by_name[n].low <= v <= spec.by_name[n].high for n, v in fitted.items())
+
+
+def test_a_close_crop_without_skin_uses_the_pools_first_sources_unscaled():
+    lips = np.ones((RES, RES), np.float32)  # lips fill the picture: no skin around them
+    chosen = lips_fit_sources((np.full((RES, RES, 3), 0.5, np.float32), lips), 2, RES, 8)
+    assert [gain for _, gain in chosen] == [1.0, 1.0]
+    assert len(LIPS_POOL) >= 16
+
+
+def test_bad_quality_and_empty_regions_are_one_line_errors():
+    spec = get_spec("hair")
+    photo = render_hair_source(7, RES, 8)
+    with pytest.raises(VtoError, match="quality is BETTER or BEST"):
+        drain(iter_fit_photo(spec, (photo.rgb, photo.mask), {}, "FAST", RES, 8))
+    with pytest.raises(VtoError, match="pixel"):
+        drain(iter_fit_photo(spec, (photo.rgb, np.zeros_like(photo.mask)), {}, "BETTER", RES, 8))
+
+
+def test_scratch_data_removes_what_was_made_inside_and_keeps_the_rest():
+    kept = bpy.data.materials.new("artist's own")
+    with scratch_data():
+        bpy.data.materials.new("scratch material")
+        bpy.data.scenes.new("scratch scene")
+    assert "scratch material" not in bpy.data.materials and "scratch scene" not in bpy.data.scenes
+    assert bpy.data.materials.get("artist's own") == kept
+    with pytest.raises(RuntimeError), scratch_data():
+        bpy.data.images.new("scratch image", 4, 4)
+        raise RuntimeError("a fit that failed")
+    assert "scratch image" not in bpy.data.images

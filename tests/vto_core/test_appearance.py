@@ -1,0 +1,52 @@
+"""What a fit reads of a region (vto_core.appearance): the mean and body colour and the statistics vector."""
+
+import numpy as np
+import pytest
+
+from vto_core.appearance import MEAN_WEIGHT, body_colour, mean_colour, region_statistics
+from vto_core.colour import srgb_to_lab
+from vto_core.errors import VtoError
+
+
+def test_a_constant_region_reads_its_colour_and_no_spread():
+    rgb = np.full((6, 7, 3), (0.8, 0.3, 0.4), np.float32)
+    mask = np.zeros((6, 7), np.float32)
+    mask[1:5, 2:6] = 1.0
+    stats = region_statistics(rgb, mask)
+    lab = srgb_to_lab(np.array([0.8, 0.3, 0.4]))
+    np.testing.assert_allclose(stats[:3], MEAN_WEIGHT * lab, atol=1e-3)
+    np.testing.assert_allclose(stats[3:7], lab[0], atol=1e-3)  # every lightness quantile is the one lightness
+    np.testing.assert_allclose(mean_colour(rgb, mask), (0.8, 0.3, 0.4), atol=1e-6)
+
+
+def test_only_the_masked_pixels_count():
+    rgb = np.zeros((4, 4, 3), np.float32)
+    rgb[:2] = (1.0, 0.0, 0.0)
+    mask = np.zeros((4, 4))
+    mask[:2] = 1
+    np.testing.assert_allclose(mean_colour(rgb, mask), (1.0, 0.0, 0.0))
+    rgb[3, 3] = (0.0, 1.0, 0.0)  # outside the mask: changes nothing
+    np.testing.assert_allclose(region_statistics(rgb, mask), region_statistics(np.where(mask[..., None] > 0, rgb, 0.5),
+                                                                                mask))
+
+
+def test_highlights_show_in_the_top_lightness_quantile_and_not_in_the_body_colour():
+    rng = np.random.default_rng(0)
+    rgb = np.full((20, 20, 3), (0.6, 0.2, 0.25), np.float32) + rng.normal(0, 0.01, (20, 20, 3)).astype(np.float32)
+    mask = np.ones((20, 20))
+    plain = region_statistics(rgb, mask)
+    rgb[0, :10] = 1.0  # 10 of 400 pixels: a small highlight
+    glossy = region_statistics(rgb, mask)
+    assert glossy[6] - plain[6] > 20  # the 0.98 lightness quantile sees it
+    assert abs(glossy[4] - plain[4]) < 0.5  # the median does not
+    np.testing.assert_allclose(body_colour(rgb, mask), (0.6, 0.2, 0.25), atol=0.01)
+
+
+def test_extremes_are_finite_and_an_empty_region_is_one_line():
+    mask = np.ones((8, 8))
+    for rgb in (np.zeros((8, 8, 3)), np.ones((8, 8, 3)), np.full((8, 8, 3), 1e6), np.full((8, 8, 3), np.nan)):
+        assert np.isfinite(region_statistics(rgb, mask)).all()
+    with pytest.raises(VtoError, match="pixel"):
+        region_statistics(np.zeros((8, 8, 3)), np.zeros((8, 8)))
+    with pytest.raises(VtoError, match="mask"):
+        region_statistics(np.zeros((8, 8, 3)), np.ones((4, 4)))
