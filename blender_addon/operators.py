@@ -178,6 +178,8 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
             return {"CANCELLED"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
+        if another_thread_renders():
+            return {"RUNNING_MODAL"}  # wait: a render now would hold the Python lock that render's thread needs
         deadline = time.perf_counter() + TICK_SECONDS
         try:
             while True:
@@ -197,6 +199,25 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
     def stop(self, context) -> None:
         context.window_manager.event_timer_remove(self._timer)
         context.window_manager.progress_end()
+
+
+def another_thread_renders() -> bool:
+    """Whether a thread other than this one is inside Cycles' Python render callbacks (the material preview icons
+    Blender re-renders in a job thread after a material changes, e.g. the quality chosen on the panel).
+
+    Starting a render from the main thread then deadlocks Blender (seen in Blender 4.3: the main thread waits for the
+    preview job holding the Python lock, the job waits for the lock), and bpy.app.is_job_running does not see these
+    previews, so the threads' Python frames are read instead."""
+    import sys
+    import threading
+
+    here = threading.get_ident()
+    for ident, frame in sys._current_frames().items():
+        while ident != here and frame is not None:
+            if frame.f_code.co_name in ("render", "render_preview") and "cycles" in frame.f_code.co_filename:
+                return True
+            frame = frame.f_back
+    return False
 
 
 CLASSES = (VTO_OT_add_lipstick_material, VTO_OT_add_hair_compositor, VTO_OT_match_from_photo)

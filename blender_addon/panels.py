@@ -63,11 +63,12 @@ def draw_quality(column, props, renderer: str) -> None:
 
 
 def quality_cost(renderer: str, quality: str) -> str:
-    """'Fast: no render, milliseconds' or 'Better: 25 renders, about 2 s' (FIT_QUALITY, FIT_SECONDS)."""
+    """'Fast: no render, milliseconds' or 'Better: 25 renders, 3-13 s' (FIT_QUALITY, FIT_SECONDS)."""
     if quality == "FAST":
         return "Fast: no render, milliseconds"
     renders = FIT_QUALITY[renderer][quality][1]
-    return f"{quality.title()}: {renders} renders, about {FIT_SECONDS[renderer][quality]:g} s"
+    seconds, first = FIT_SECONDS[renderer][quality]
+    return f"{quality.title()}: {renders} renders, {seconds:g}-{first:g} s"  # the longer: a session's first fit
 
 
 def draw_estimate(layout, props) -> None:
@@ -91,7 +92,7 @@ def draw_match(layout, context, props, renderer: str, target: str, material_name
     preference = preference_model(context, renderer)
     model = apply.resolve_model(renderer, props.model_path, preference)
     try:
-        column.prop(props, "model_path", text="Model", placeholder=f"{model.stem} (shipped)"
+        column.prop(props, "model_path", text="Model", placeholder="shipped"
                     if not (props.model_path or preference) else model.stem)
     except TypeError:  # no placeholder before Blender 4.1
         column.prop(props, "model_path", text="Model")

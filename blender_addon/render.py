@@ -28,7 +28,8 @@ def configure_cycles(scene: bpy.types.Scene, res: int, samples: int, seed: int =
         raise VtoError(f"resolution must be in [8, 4096], got {res}")
     if not 1 <= samples <= 65536:
         raise VtoError(f"samples must be in [1, 65536], got {samples}")
-    scene.render.engine = "CYCLES"
+    if scene.render.engine != "CYCLES":  # setting it tells every render engine, the preview's too
+        scene.render.engine = "CYCLES"
     set_render_quality(scene, samples, seed)
     scene.render.threads_mode = "AUTO"
     scene.render.resolution_x = scene.render.resolution_y = res

@@ -35,15 +35,16 @@ def source_key(props, renderer: str = "lipstick") -> tuple:
     return source, tuple(round(v, 4) for v in props.crop) if props.use_crop else None, stamp(props.mask_path), finding
 
 
-def outline(canvas: np.ndarray, points: np.ndarray, colour) -> None:
-    """Draw the closed polygon `points` (K, 2) x, y in canvas pixels onto canvas (H, W, 4), 2 px wide, in place."""
+def outline(canvas: np.ndarray, points: np.ndarray, colour, width: int = 2) -> None:
+    """Draw the closed polygon `points` (K, 2) x, y in canvas pixels onto canvas (H, W, 4), `width` (1 or 2) px wide,
+    in place."""
     if len(points) < 2:
         return
     ends = np.roll(points, -1, axis=0)
     steps = int(np.ceil(np.abs(ends - points).max())) + 1
     t = np.linspace(0.0, 1.0, max(steps, 2))[:, None, None]
     dots = (points[None] + t * (ends - points)[None]).reshape(-1, 2)
-    for dx, dy in ((0, 0), (1, 0), (0, 1), (1, 1)):
+    for dx, dy in ((0, 0), (1, 0), (0, 1), (1, 1))[:1 if width == 1 else 4]:
         x = np.clip(np.round(dots[:, 0] - 0.5).astype(int) + dx, 0, canvas.shape[1] - 1)
         y = np.clip(np.round(dots[:, 1] - 0.5).astype(int) + dy, 0, canvas.shape[0] - 1)
         canvas[y, x, :3] = colour
@@ -65,9 +66,8 @@ def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None) -> 
     canvas = np.full((SIZE, SIZE, 4), (0.16, 0.16, 0.16, 1.0), np.float32)
     top, left = (SIZE - h) // 2, (SIZE - w) // 2
     canvas[top:top + h, left:left + w, :3] = np.clip(picture, 0.0, 1.0)
-    if lips is not None:
-        for contour in (lips.outer, lips.inner):
-            outline(canvas, np.asarray(contour, np.float64) * scale + (left, top), LIPS_COLOUR)
+    if lips is not None:  # the outer contour: at thumbnail size a mouth is a few pixels, the inner one would fill it
+        outline(canvas, np.asarray(lips.outer, np.float64) * scale + (left, top), LIPS_COLOUR, width=1)
         if lips.how == "face":
             crop = lips_frame(lips.mask)
     if crop is not None:

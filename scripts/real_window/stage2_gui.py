@@ -228,7 +228,7 @@ def operator_error(area, material_name):
 
 def retrying(action):
     """Run `action` once Blender allows writing ID data (not while a material preview renders)."""
-    for attempt in range(600):  # (on two busy cores the first preview icons take a while)
+    for attempt in range(2400):  # (on two busy cores the first preview icons took over 60 s in 2 runs of 5)
         try:
             done = action()
             if attempt:
@@ -238,7 +238,7 @@ def retrying(action):
             if "not allowed" not in str(exc):
                 raise
         yield 0.1
-    raise RuntimeError("Blender did not allow writing ID data for 60 s")
+    raise RuntimeError("Blender did not allow writing ID data for 240 s")
 
 
 def undo():

@@ -694,3 +694,30 @@ def test_the_modal_refinement_writes_only_at_the_end_and_esc_changes_nothing(tmp
     assert state == {"FINISHED"} and ticks == 50 and progress == list(range(2, 101, 2))
     assert values() != before and json.loads(scene.vto_hair_match.last_estimate)["renderer"] == "hair"
     assert running.reports[-1][0] == {"INFO"} and running.reports[-1][1].startswith("matched the compositor")
+
+
+def test_refinement_waits_while_another_thread_renders_in_cycles(tmp_path):
+    """The modal Match does not render while Cycles' Python render callbacks run in a job thread (a material
+    preview): starting a render then deadlocked Blender 4.3 in a real window."""
+    import importlib.util
+    import threading
+
+    from blender_addon.operators import another_thread_renders
+
+    (tmp_path / "cycles").mkdir()
+    (tmp_path / "cycles" / "engine.py").write_text("def render(started, release):\n    started.set()\n"
+                                                   "    release.wait(10)\n")
+    spec = importlib.util.spec_from_file_location("fake_cycles_engine", tmp_path / "cycles" / "engine.py")
+    engine = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(engine)
+    started, release = threading.Event(), threading.Event()
+    preview = threading.Thread(target=engine.render, args=(started, release))
+    assert not another_thread_renders()
+    preview.start()
+    started.wait(10)
+    try:
+        assert another_thread_renders()
+    finally:
+        release.set()
+        preview.join(10)
+    assert not another_thread_renders()

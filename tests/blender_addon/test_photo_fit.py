@@ -10,7 +10,7 @@ bpy = pytest.importorskip("bpy")
 from blender_addon.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.lipstick import render_lipstick  # noqa: E402
 from blender_addon.photo_fit import (FIT_QUALITY, LIPS_POOL, PHOTO_HAIR, apparent_colour, iter_fit_photo,  # noqa: E402
-                                     lips_fit_sources, photo_values)
+                                     iter_lips_fit_sources, photo_values)
 from blender_addon.refine import drain  # noqa: E402
 from blender_addon.scene_lips import lips_mask  # noqa: E402
 from blender_addon.scratch import scratch_data  # noqa: E402
@@ -59,7 +59,7 @@ def test_the_lips_fit_picks_sources_with_the_photos_skin_and_moves_towards_its_c
     truth = {"opacity": 0.95, "red": 200.0, "green": 60.0, "blue": 110.0, "gloss": 1.0, "reflection": 0.1}
     mask = lips_mask(source, RES)
     region = (render_lipstick(truth, source, RES, 8, 0), mask)
-    chosen = lips_fit_sources(region, 2, RES, 8)
+    chosen = drain(iter_lips_fit_sources(region, 2, RES, 8))
     assert len(chosen) == 2 and all(0.25 <= gain <= 4.0 for _, gain in chosen)
     start = {**truth, "red": 120.0, "green": 120.0, "blue": 60.0}  # an olive guess
     fitted = drain(iter_fit_photo(spec, region, start, "BETTER", RES, 8))
@@ -71,7 +71,7 @@ def test_the_lips_fit_picks_sources_with_the_photos_skin_and_moves_towards_its_c
 
 def test_a_close_crop_without_skin_uses_the_pools_first_sources_unscaled():
     lips = np.ones((RES, RES), np.float32)  # lips fill the picture: no skin around them
-    chosen = lips_fit_sources((np.full((RES, RES, 3), 0.5, np.float32), lips), 2, RES, 8)
+    chosen = drain(iter_lips_fit_sources((np.full((RES, RES, 3), 0.5, np.float32), lips), 2, RES, 8))
     assert [gain for _, gain in chosen] == [1.0, 1.0]
     assert len(LIPS_POOL) >= 16
 
