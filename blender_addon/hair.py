@@ -19,6 +19,7 @@ from vto_core.specs import RendererSpec, get_spec
 
 from .compat import composite_output, compositor_tree, set_exr_output
 from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, set_blur_radius, set_lut, swatch_group
+from .photo_fit import PHOTO_HAIR
 from .render import configure_cycles, render_passes, to_display
 from .scene_hair import HAIR_PASS_INDEX, apply_source, build_hair_scene
 
@@ -60,16 +61,15 @@ def render_hair_source(source_seed: int, res: int = 64, samples: int = DEFAULT_S
     return HairSource(resize(rgb, res, res), (resize(mask, res, res) > 0.5).astype(np.float32))
 
 
-# A photo refined as its own source: the stage recolours the photo's hair towards the swatch, so with intensity 0 or
-# the fade moved below the hair (blend 1) it returns the photo untouched, a perfect and useless match. Render search
-# then holds these at full effect and fits the swatch (colour and shine) alone; the encoder's values stand for them.
-OWN_SOURCE_HELD = {"intensity": 1.0, "blend": -1.0}
-
-
 def own_source_held(spec: RendererSpec, start: dict[str, float]) -> dict[int, float]:
-    """{position in spec.modelled: unit value} of OWN_SOURCE_HELD, for iter_refine_by_render's `held`."""
-    unit = spec.normalise(spec.vector({**start, **OWN_SOURCE_HELD}))
-    return {i: float(unit[i]) for i, name in enumerate(spec.modelled) if name in OWN_SOURCE_HELD}
+    """{position in spec.modelled: unit value} of intensity and blend at full effect (photo_fit.PHOTO_HAIR), where the
+    spec models them, for iter_refine_by_render's `held`.
+
+    A photo fixes them (photo_fit); and a photo refined as its own source would be undone by them: the stage recolours
+    the photo's hair towards the swatch, so with intensity 0 or the fade moved below the hair (blend 1) it returns the
+    photo untouched, a perfect and useless match."""
+    unit = spec.normalise(spec.vector({**start, **PHOTO_HAIR}))
+    return {i: float(unit[i]) for i, name in enumerate(spec.modelled) if name in PHOTO_HAIR}
 
 
 def mask_path_for(photo: Path) -> Path:

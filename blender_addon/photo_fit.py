@@ -1,12 +1,14 @@
-"""Better and Best for a photo whose scene is unknown: fit what the photo shows of the material through the real
-renderer on default-scene sources.
+"""Fast, Better and Best for a photo whose scene is unknown: fit what the photo shows of the material, through the
+colour imitator (Fast) or the real renderer on default-scene sources (Better, Best).
 
 A photo of real lips (or of an artist's reference hair) has no source X to render the estimate on, so the render
 cannot be compared with it pixel by pixel. What can be compared is the region's colour statistics
-(vto_core.appearance: its mean colour, the spread of its lightness up to the highlights, its chroma): the fit
-(blender_addon.refine, Levenberg-Marquardt from the encoder's estimate) moves the parameters until the default scene's
-lips (or hair) show the photo's statistics, averaged over a few default sources. Those sources are seeds of their own
-(FIT_SOURCES), never the ones the benchmarks measure the estimate on.
+(vto_core.appearance: its mean colour, the spread of its lightness up to the highlights, its chroma): the fits
+(Levenberg-Marquardt from the encoder's estimate, with a pull back towards it) move the parameters until the default
+scene's lips (or hair) show the photo's statistics. Fast asks the colour imitator (vto_core.colour_imitator) what the
+default scene would show; Better and Best render it (blender_addon.refine's fit), the lips on the sources whose skin
+looks most like the photo's, lit as the photo's skin is. Those sources are seeds of their own (LIPS_POOL,
+FIT_SOURCES), never the ones the benchmarks measure the estimate on.
 """
 
 from __future__ import annotations
@@ -26,9 +28,9 @@ from vto_core.specs import RendererSpec
 LIPS_POOL = tuple(range(900001, 900025))
 FIT_SOURCES = (900001, 900002, 900003, 900004)
 MAX_GAIN = 4.0  # the exposure gain that lights a source's skin as the photo's: at most 2 stops either way
-QUALITIES = ("FAST", "BETTER", "BEST")
+QUALITIES = ("FAST", "BETTER", "BEST")  # the panel's choice: no render (the colour imitator), or FIT_QUALITY's renders
 NO_REGION = ("fits the colour of the lips and needs to know where they are: let the add-on find them (Find Lips), or "
-             "give a mask")  # the panel's choice: the encoder alone, or the fit with FIT_QUALITY's renders
+             "give a mask")
 # Quality -> (sources, renders in all). Lipstick renders cost ~0.15 s at 64 px; the hair stage ~10 ms a source.
 FIT_QUALITY = {"lipstick": {"BETTER": (1, 25), "BEST": (2, 100)}, "hair": {"BETTER": (2, 100), "BEST": (4, 400)}}
 # (seconds, seconds the first time in a session) each takes on a 2-core CPU, what the panel tells the artist:
@@ -78,6 +80,18 @@ def region_renderer(renderer: str, source: int, res: int = FIT_RES,
 def photo_values(spec: RendererSpec, values: dict[str, float]) -> dict[str, float]:
     """The values with what a photo fixes: for hair, full effect (PHOTO_HAIR)."""
     return {**values, **PHOTO_HAIR} if spec.renderer == "hair" else dict(values)
+
+
+def fit_start(spec: RendererSpec, start: dict[str, float]) -> tuple[np.ndarray, np.ndarray, dict[int, float] | None]:
+    """Where a photo fit starts: the unit vector (m,) of `start` with what a photo fixes, the wrapping dimensions (m,)
+    and the held ones (hair: intensity and blend at full effect where modelled, blender_addon.hair.own_source_held)."""
+    unit = spec.normalise(spec.vector(photo_values(spec, start)))
+    wraps = np.array([p.wraps for p in spec.modelled_params])
+    if spec.renderer != "hair":
+        return unit, wraps, None
+    from .hair import own_source_held
+
+    return unit, wraps, own_source_held(spec, start)
 
 
 _LIPS_POOLS: dict[tuple[int, int], tuple] = {}
@@ -144,8 +158,7 @@ def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
         sources = yield from iter_lips_fit_sources(region, count, res, samples)
     else:
         sources = [(region_renderer(spec.renderer, seed, res, samples), 1.0) for seed in FIT_SOURCES[:count]]
-    unit = spec.normalise(spec.vector(photo_values(spec, start)))
-    wraps = np.array([p.wraps for p in spec.modelled_params])
+    unit, wraps, held = fit_start(spec, start)
 
     def shown(render, gain: float, values: dict[str, float]) -> np.ndarray:
         rgb, mask = render(values)
@@ -156,7 +169,6 @@ def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
         seen = np.mean([shown(render, gain, values) for render, gain in sources], axis=0)
         return np.concatenate([seen, PRIOR_WEIGHT[spec.renderer] * parameter_difference(trial, unit, wraps)])
 
-    held = {i: float(unit[i]) for i, name in enumerate(spec.modelled) if spec.renderer == "hair" and name in PHOTO_HAIR}
     target = np.concatenate([region_statistics(*region), np.zeros(spec.size)])
     steps = iter_refine_by_render(statistics_at, target, unit, renders // count, wraps=wraps, held=held, search="fit")
     while True:
@@ -189,9 +201,7 @@ def fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
                              "encoder's estimate")
     light = skin_light(*region) if imitator.typical_skin is not None else None
     target = region_statistics(*region)
-    unit = spec.normalise(spec.vector(photo_values(spec, start)))
-    held = {i: float(unit[i]) for i, name in enumerate(spec.modelled) if spec.renderer == "hair" and name in PHOTO_HAIR}
-    wraps = np.array([p.wraps for p in spec.modelled_params])
+    unit, wraps, held = fit_start(spec, start)
     found = imitator.fit(target, unit, PRIOR_WEIGHT[spec.renderer], wraps, held, None if light is None else light[1])
     fitted = spec.values(spec.denormalise(found))
     return {name: float(fitted[name]) for name in spec.modelled}, ""

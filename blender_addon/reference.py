@@ -181,6 +181,21 @@ def _cut(image: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
     return np.ascontiguousarray(image[y:y + h, x:x + w])
 
 
+def in_whole(lips, box: tuple[int, int, int, int], shape: tuple[int, int]):
+    """Lips found inside `box` (x, y, w, h) of an image of `shape` (H, W), in that image's coordinates."""
+    import dataclasses
+
+    x, y, w, h = box
+    if (x, y, w, h) == (0, 0, shape[1], shape[0]):
+        return lips
+    mask = np.zeros(shape, np.float32)
+    mask[y:y + h, x:x + w] = lips.mask
+    offset = np.array([x, y], np.float32)
+    lx, ly, lw, lh = lips.box
+    return dataclasses.replace(lips, mask=mask, box=(lx + x, ly + y, lw, lh), outer=np.asarray(lips.outer) + offset,
+                               inner=np.asarray(lips.inner) + offset)
+
+
 def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None, find_lips: bool = True) -> Reference:
     """The lips of a photo, framed for the encoder: a crop, a mask (framed by lips_frame), or, with neither, the lips
     the locator finds (framed likewise). find_lips=False takes the whole image (or the crop) as it is. A crop in which
@@ -198,8 +213,8 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
 
             lips = close_up((box[3], box[2]), DEFAULT_LENS, 0.0, "no lips found in the crop: the crop is taken as the "
                             "lips, framed as the default scene frames them")
-        mask = np.zeros((height, width), np.float32)
-        mask[box[1]:box[1] + box[3], box[0]:box[0] + box[2]] = lips.mask
+        lips = in_whole(lips, box, (height, width))
+        mask = lips.mask
         notes += [lips.note] if lips.note else []
     if crop is None and mask is not None:
         box = lips_frame(mask)

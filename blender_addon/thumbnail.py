@@ -9,7 +9,7 @@ import numpy as np
 
 from vto_core.errors import VtoError
 
-from .reference import absolute_path, crop_box, datablock_pixels, lips_frame, load_reference, locate_lips, read_mask
+from .reference import absolute_path, crop_box, datablock_pixels, lips_frame, lips_reference, load_reference, read_mask
 
 SIZE = 128  # pixels of the square thumbnail
 CROP_COLOUR = (1.0, 0.78, 0.1)  # the crop's outline: Blender's selection orange-yellow
@@ -108,13 +108,11 @@ def icon(props, name: str, renderer: str = "lipstick") -> tuple[int, str]:
         crop = tuple(props.crop) if props.use_crop else None
         lips, note = None, ""
         if key[-1]:
-            try:
-                lips = locate_lips(reference if crop is None else _cropped(reference, crop))
-                note = lips.note
+            try:  # as Match will find them
+                found = lips_reference(reference, crop)
+                lips, note = found.lips, " ".join(found.notes)
             except VtoError as exc:
                 note = str(exc)
-        if lips is not None and crop is not None:
-            lips = _shifted(lips, crop_box(crop, reference.shape[1], reference.shape[0]), reference.shape[:2])
         rgba = compose(reference, crop, mask, lips)
     except Exception as exc:  # VtoError, or anything a broken file raises: the thumbnail only says why
         _made[name] = (key, 0, (str(exc).splitlines() or [""])[0])
@@ -126,23 +124,6 @@ def icon(props, name: str, renderer: str = "lipstick") -> tuple[int, str]:
     preview.image_pixels_float.foreach_set(rgba[::-1].ravel())  # Blender's rows run bottom-up
     _made[name] = (key, preview.icon_id, note)
     return preview.icon_id, note
-
-
-def _cropped(reference: np.ndarray, crop) -> np.ndarray:
-    x, y, w, h = crop_box(crop, reference.shape[1], reference.shape[0])
-    return reference[y:y + h, x:x + w]
-
-
-def _shifted(lips, box: tuple[int, int, int, int], shape: tuple[int, int]):
-    """Lips found inside a crop `box`, moved to the whole image's coordinates (shape (H, W))."""
-    import dataclasses
-
-    x, y, w, h = box
-    mask = np.zeros(shape, np.float32)
-    mask[y:y + h, x:x + w] = lips.mask
-    offset = np.array([x, y], np.float32)
-    return dataclasses.replace(lips, mask=mask, outer=np.asarray(lips.outer) + offset,
-                               inner=np.asarray(lips.inner) + offset)
 
 
 def unregister() -> None:

@@ -228,7 +228,8 @@ def operator_error(area, material_name):
 
 def retrying(action):
     """Run `action` once Blender allows writing ID data (not while a material preview renders)."""
-    for attempt in range(2400):  # (on two busy cores the first preview icons took over 60 s in 2 runs of 5)
+    refusal = ""
+    for attempt in range(600):  # (on two busy cores the first preview icons take a while)
         try:
             done = action()
             if attempt:
@@ -237,8 +238,9 @@ def retrying(action):
         except AttributeError as exc:
             if "not allowed" not in str(exc):
                 raise
+            refusal = str(exc)
         yield 0.1
-    raise RuntimeError("Blender did not allow writing ID data for 240 s")
+    raise RuntimeError(f"Blender did not allow writing ID data for 60 s: {refusal}")
 
 
 def undo():
@@ -321,12 +323,14 @@ def script():
     props_area = area_of("PROPERTIES")
     props_area.spaces.active.context = "MATERIAL"
     yield 1.0
-    yield from taller(props_area, 260)
     # what the artist types or browses into Reference (a timer may not write while the material preview renders)
     # ("//astronaut.png": relative to the .blend, which sits beside the photos, as an artist's file browser writes it)
+    # Before the drag below: after it, in 3 runs of 8, Blender refused a timer's writes ("drawing/rendering") for
+    # over 60 s, then for good.
     yield from retrying(lambda: setattr(lips_props(), "image_path", bpy.path.relpath(LIPS_REF)))
     with bpy.context.temp_override(window=win, area=props_area):
         bpy.ops.ed.undo_push(message="Reference")  # as the UI does after an edit
+    yield from taller(props_area, 260)
     props_area.tag_redraw()  # (a timer's edit sends no notifier)
     RESULT["engine"] = bpy.context.scene.render.engine
     yield 4.0  # the panel draws, the encoder loads on its timer, the lips are found for the thumbnail
