@@ -77,7 +77,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--sources", type=int, default=4)
     args = parser.parse_args(argv)
     from blender_addon.hair import render_hair_source, run_hair_stage
-    from blender_addon.photo_fit import PHOTO_HAIR, apparent_colour
+    from blender_addon.photo_fit import apparent_colour
+    from vto_core.hair import PHOTO_HAIR
     from vto_core.appearance import mean_colour
     from vto_core.colour import srgb_to_lab
     from vto_core.inference import EncoderSession

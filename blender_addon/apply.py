@@ -29,11 +29,12 @@ from pathlib import Path
 import numpy as np
 
 from vto_core.errors import VtoError
+from vto_core.hair import PHOTO_HAIR
 from vto_core.inference import EncoderSession, cached_session
 from vto_core.specs import RendererSpec, get_spec
 
 from .compat import uses_nodes
-from .photo_fit import FIT_QUALITY, NO_REGION, PHOTO_HAIR, QUALITIES, fit_photo_fast, iter_fit_photo, photo_values
+from .photo_fit import FIT_QUALITY, NO_REGION, QUALITIES, fit_photo_fast, iter_fit_photo, photo_values
 from .reference import absolute_path, read_reference
 from .refine import drain
 
@@ -103,7 +104,7 @@ def hair_nodes(scene) -> list:
 
 
 def written_params(spec: RendererSpec) -> list:
-    """The parameters a match writes: the modelled ones, and for hair what a photo fixes (photo_fit.PHOTO_HAIR)."""
+    """The parameters a match writes: the modelled ones, and for hair what a photo fixes (vto_core.hair.PHOTO_HAIR)."""
     names = list(spec.modelled) + [n for n in PHOTO_HAIR if spec.renderer == "hair" and n not in spec.modelled]
     return [spec.by_name[name] for name in names]
 

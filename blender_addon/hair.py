@@ -13,13 +13,12 @@ import numpy as np
 
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
-from vto_core.hair import blur_radius, fit_hair_match, hair_gradient, hair_square
+from vto_core.hair import PHOTO_HAIR, blur_radius, fit_hair_match, hair_gradient, hair_square
 from vto_core.imageio import read_image, resize
 from vto_core.specs import RendererSpec, get_spec
 
 from .compat import composite_output, compositor_tree, set_exr_output
 from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, set_blur_radius, set_lut, swatch_group
-from .photo_fit import PHOTO_HAIR
 from .render import configure_cycles, render_passes, to_display
 from .scene_hair import HAIR_PASS_INDEX, apply_source, build_hair_scene
 
@@ -62,7 +61,7 @@ def render_hair_source(source_seed: int, res: int = 64, samples: int = DEFAULT_S
 
 
 def own_source_held(spec: RendererSpec, start: dict[str, float]) -> dict[int, float]:
-    """{position in spec.modelled: unit value} of intensity and blend at full effect (photo_fit.PHOTO_HAIR), where the
+    """{position in spec.modelled: unit value} of intensity and blend at full effect (vto_core.hair.PHOTO_HAIR), where the
     spec models them, for iter_refine_by_render's `held`.
 
     A photo fixes them (photo_fit); and a photo refined as its own source would be undone by them: the stage recolours

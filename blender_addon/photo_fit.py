@@ -21,6 +21,7 @@ import numpy as np
 
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
+from vto_core.hair import PHOTO_HAIR
 from vto_core.specs import RendererSpec
 
 # Default-scene seeds the fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up. Lips: a pool
@@ -38,9 +39,6 @@ FIT_QUALITY = {"lipstick": {"BETTER": (1, 25), "BEST": (2, 100)}, "hair": {"BETT
 # (lips: a pool of 24, bare and masked; hair: its regions).
 FIT_SECONDS = {"lipstick": {"BETTER": (3, 13), "BEST": (10, 20)}, "hair": {"BETTER": (2, 4), "BEST": (6, 10)}}
 FIT_RES = 64
-# A photo's hair is given the stage at full effect on all the hair: intensity 1 (the photo's colour, not a mix with
-# the artist's own) and blend -1 (no fade). Those are the spec's defaults, and the fit holds them there.
-PHOTO_HAIR = {"intensity": 1.0, "blend": -1.0}
 # The statistics leave looks ambiguous (a thin white layer with a strong coat can show the lips' colour too): each
 # unit of distance from the encoder's estimate costs this many CIELAB units, so the fit keeps the encoder's reading
 # where the photo does not ask for another. Hair statistics depend on the swatch alone (the stage matches the hair's

@@ -9,6 +9,9 @@ from .errors import VtoError
 from .histogram import HistogramMatch, fit_histogram_match
 
 SWATCH_PARAMS = ("brightness", "contrast", "exposure", "gamma", "hue", "saturation")
+# A photo's hair is given the stage at full effect on all the hair: intensity 1 (the photo's colour, not a mix with
+# the artist's own) and blend -1 (no fade). Those are the spec's defaults, and the fits hold them there.
+PHOTO_HAIR = {"intensity": 1.0, "blend": -1.0}
 LUT_POINTS = 64
 MAX_LUT_SLOPE = 4.0  # contrast-limited matching (histogram.limit_slope): see fit_hair_match
 # Faded look: weight = clamp(BLEND_RAMP * (t - offset)), offset = BLEND_OFFSET + BLEND_SCALE * blend, t = 0 at the top

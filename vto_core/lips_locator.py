@@ -44,7 +44,7 @@ MIN_TILED_SIDE = 256  # px: smaller images hold no face too small for the whole-
 SMALL_FACE = 0.15  # a face box under this share of the image's longer side sends the detector over the squares too
 TAPS = 4  # strided samples per block side when a large image is reduced (TAPS**2 per output pixel)
 
-# The close-up test (see is_lips_close_up): the picture reduced to CLOSE_UP_SIZE px on its longer side.
+# The close-up test (see close_up_test): the picture reduced to CLOSE_UP_SIZE px on its longer side.
 CLOSE_UP_SIZE = 48
 MIN_CLOSE_UP_SIDE = 16
 MIN_LENS_MATCH, LENS_MARGIN = 0.4, 0.1
@@ -313,20 +313,6 @@ def blur(image: np.ndarray, passes: int = 2) -> np.ndarray:
         padded = np.pad(image, ((0, 0), (1, 1), (0, 0)), mode="edge")
         image = (padded[:, :-2] + 2 * padded[:, 1:-1] + padded[:, 2:]) / 4
     return image
-
-
-def is_lips_close_up(image: np.ndarray) -> tuple[bool, float]:
-    """Whether (H, W, 3) is a close-up of lips (every rule of close_up_rules passes), and its lens score (the best
-    normalised cross-correlation of the redness maps with a lips-shaped lens; 0 when the test stops early)."""
-    rules = close_up_test(image)[0]
-    score = rules["lens"] * LENS_MARGIN + MIN_LENS_MATCH if "lens" in rules else 0.0
-    return bool(min(rules.values()) > 0), float(score)
-
-
-def close_up_rules(image: np.ndarray) -> dict[str, float]:
-    """The close-up test on (H, W, 3): each rule's margin, > 0 where it passes (a few units of its natural step).
-    See close_up_test, which also gives the lens found."""
-    return close_up_test(image)[0]
 
 
 def close_up_test(image: np.ndarray) -> tuple[dict[str, float], tuple[float, float, float, float] | None]:

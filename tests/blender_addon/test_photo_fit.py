@@ -9,7 +9,7 @@ bpy = pytest.importorskip("bpy")
 
 from blender_addon.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.lipstick import render_lipstick  # noqa: E402
-from blender_addon.photo_fit import (FIT_QUALITY, LIPS_POOL, PHOTO_HAIR, apparent_colour, iter_fit_photo,  # noqa: E402
+from blender_addon.photo_fit import (FIT_QUALITY, LIPS_POOL, apparent_colour, iter_fit_photo,  # noqa: E402
                                      iter_lips_fit_sources, photo_values)
 from blender_addon.refine import drain  # noqa: E402
 from blender_addon.scene_lips import lips_mask  # noqa: E402
@@ -45,7 +45,7 @@ def test_the_hair_fit_gives_the_default_hair_the_photos_colour_from_a_far_start(
 
 def test_a_photo_fixes_the_hair_stage_at_full_effect():
     spec = get_spec("hair", "hue,saturation,intensity,blend")
-    assert photo_values(spec, {"hue": 0.2, "intensity": 0.3, "blend": 0.5}) == {"hue": 0.2, **PHOTO_HAIR}
+    assert photo_values(spec, {"hue": 0.2, "intensity": 0.3, "blend": 0.5}) == {"hue": 0.2, "intensity": 1.0, "blend": -1.0}
     assert photo_values(get_spec("lipstick"), {"red": 9.0}) == {"red": 9.0}
     photo = render_hair_source(7, RES, 8)
     region = (run_hair_stage(photo, {"hue": 0.5}), photo.mask)
