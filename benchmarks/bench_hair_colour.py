@@ -38,7 +38,7 @@ def delta_e(a: np.ndarray, b: np.ndarray) -> float:
 
 def estimates(session, region: tuple[np.ndarray, np.ndarray], qualities) -> dict[str, tuple[dict, float]]:
     """quality -> (all values, ms): the encoder on the region's largest hair square fitted through the colour imitator
-    (Fast), then through the stage (Better); as a Match does (blender_addon.apply.iter_compute)."""
+    (Fast), or through the stage from it or the encoder's (Better); as a Match does (blender_addon.apply.iter_compute)."""
     from blender_addon.photo_fit import fit_photo_fast, iter_fit_photo, photo_values
     from blender_addon.reference import hair_reference
     from blender_addon.refine import drain
@@ -50,7 +50,8 @@ def estimates(session, region: tuple[np.ndarray, np.ndarray], qualities) -> dict
         encoder = {k: v for k, v in session.predict(reference.image)[0].items() if k in spec.modelled}
         values = photo_values(spec, fit_photo_fast(spec, reference.region, encoder)[0])
         if quality != "FAST":
-            values = photo_values(spec, drain(iter_fit_photo(spec, reference.region, values, quality)))
+            values = photo_values(spec, drain(iter_fit_photo(spec, reference.region, encoder, quality,
+                                                             others=(values,))))
         found[quality] = (spec.full_values(values), 1000 * (time.perf_counter() - started))
     return found
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import table, write_section
+from benchmarks.common import box_iou, table, write_section
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = ROOT / "blender_addon" / "models"
@@ -98,13 +98,6 @@ def photo_records() -> list[tuple[str, np.ndarray, list | None, int]]:
         found.append((name + (" (held out)" if record.get("held_out") else ""), image, record["lips_box"],
                       record["faces"]))
     return found
-
-
-def box_iou(a, b) -> float:
-    """Intersection over union of two (x, y, w, h) boxes."""
-    width = max(0, min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0]))
-    height = max(0, min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1]))
-    return width * height / (a[2] * a[3] + b[2] * b[3] - width * height)
 
 
 def accuracy() -> str:

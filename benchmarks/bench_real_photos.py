@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import RESULTS, table, write_section
+from benchmarks.common import RESULTS, box_iou, table, write_section
 
 PHOTOS = Path(__file__).parent / "photos" / "photos.json"
 MODELS = Path(__file__).resolve().parent.parent / "blender_addon" / "models"
@@ -54,16 +54,6 @@ def load_photo(record: dict, folder: Path) -> np.ndarray:
 
         return read_image(cbook.get_sample_data("grace_hopper.jpg", asfileobj=False))[0]
     return read_image(folder / name)[0][..., :3]
-
-
-def box_iou(a, b) -> float:
-    """IoU of two (x, y, w, h) boxes."""
-    ax, ay, aw, ah = a
-    bx, by, bw, bh = b
-    width = max(0.0, min(ax + aw, bx + bw) - max(ax, bx))
-    height = max(0.0, min(ay + ah, by + bh) - max(ay, by))
-    inter = width * height
-    return float(inter / (aw * ah + bw * bh - inter)) if inter else 0.0
 
 
 def delta_e(a: np.ndarray, b: np.ndarray) -> float:

@@ -44,6 +44,16 @@ def write_table(name: str, title: str, header: list[str], rows: list[list], note
     return path
 
 
+def box_iou(a, b) -> float:
+    """Intersection over union of two (x, y, w, h) boxes."""
+    ax, ay, aw, ah = a
+    bx, by, bw, bh = b
+    width = max(0.0, min(ax + aw, bx + bw) - max(ax, bx))
+    height = max(0.0, min(ay + ah, by + bh) - max(ay, by))
+    inter = width * height
+    return float(inter / (aw * ah + bw * bh - inter)) if inter else 0.0
+
+
 def machine() -> str:
     """One line about this machine: CPU model, cores, Python, and Blender's and torch's versions where they are loaded."""
     import sys

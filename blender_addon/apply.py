@@ -164,11 +164,11 @@ def prepare(renderer: str, settings: dict) -> dict:
 
 def iter_compute(prepared: dict):
     """The encoder's estimate fitted to the colour statistics of the photo's lips or hair (blender_addon.photo_fit):
-    through the colour imitator (Fast, milliseconds), then, when the quality asks, through the real renderer on
+    through the colour imitator (Fast, milliseconds), or, when the quality asks, through the real renderer on
     default sources. A generator: yields renders made so far (none for Fast) and returns parameter -> raw value,
     inside its range: the modelled ones and what a photo fixes (photo_fit.photo_values)."""
     spec, reference = prepared["spec"], prepared["reference"]
-    values = estimate(prepared["session"], spec, reference.image)
+    values = encoder = estimate(prepared["session"], spec, reference.image)
     if reference.region is not None:
         values, note = fit_photo_fast(spec, reference.region, values)
         reference.notes += [note] if note else []
@@ -177,8 +177,8 @@ def iter_compute(prepared: dict):
         from .scratch import scratch_data
 
         with scratch_data():  # the default scenes the fit renders leave nothing in the artist's .blend
-            values = yield from iter_fit_photo(spec, reference.region, values,
-                                               prepared["quality"])
+            values = yield from iter_fit_photo(spec, reference.region, encoder, prepared["quality"],
+                                               others=(values,))
         values = photo_values(spec, values)
     return values
 

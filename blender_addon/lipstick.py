@@ -12,7 +12,7 @@ from vto_core.specs import get_spec
 from .compat import uses_nodes
 from .nodes_lipstick import GROUP_NAME
 from .render import configure_cycles, render_passes, render_user_scene, to_display
-from .scene_lips import apply_source, build_lips_scene, use_lighting
+from .scene_lips import applied, apply_source, build_lips_scene, use_lighting
 
 
 def makeup_nodes(scene: bpy.types.Scene) -> list[bpy.types.Node]:
@@ -75,9 +75,10 @@ def linked_inputs(scene: bpy.types.Scene) -> list[str]:
 
 def render_lipstick(values: dict[str, float], source: int = 0, res: int | None = 64,
                     samples: int | None = DEFAULT_SAMPLES, seed: int = 0,
-                    scene: bpy.types.Scene | None = None, lighting: str | None = None) -> np.ndarray:
+                    scene: bpy.types.Scene | None = None, lighting: str | None = None,
+                    tones: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """R(X, g): display-sRGB image (res, res, 3) float32 of the lips `source`, lit the `lighting` way (None: the
-    default), wearing `values`.
+    default), wearing `values`; `tones` (sRGB (3,) of the skin and the bare lips) replace the source's own.
 
     With `scene` given (a user's scene using the group) that scene is rendered with its own settings, only `values`
     and the res/samples given (not None) changing it; `source` is ignored.
@@ -87,8 +88,8 @@ def render_lipstick(values: dict[str, float], source: int = 0, res: int | None =
         return render_user_scene(scene, res, samples, seed)
     scene = build_lips_scene()
     use_lighting(scene, lighting)
-    if scene.get("vto_source_seed") != int(source):
-        apply_source(scene, int(source))
+    if not applied(scene, source, tones):
+        apply_source(scene, int(source), tones)
     set_lipstick_values(scene, values)
     configure_cycles(scene, res, samples, seed)
     return to_display(render_passes(scene)["Combined"][..., :3])

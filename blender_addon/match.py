@@ -147,8 +147,9 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
               "encoder_ms": 1000 * (time.perf_counter() - started)}
     if prepared.lips is not None:
         result["lips"] = {"how": prepared.lips.how, "box": list(prepared.lips.box), "faces": prepared.lips.faces}
+    encoder = {k: values[k] for k in spec.modelled}  # Better and Best's candidate starts: it and Fast's
     if source is None and prepared.region is not None:  # a photo: its colour, through the colour imitator
-        fast, note = fit_photo_fast(spec, prepared.region, {k: values[k] for k in spec.modelled})
+        fast, note = fit_photo_fast(spec, prepared.region, encoder)
         result["notes"] = prepared.notes + ([note] if note else [])
         result["params"] = values = spec.full_values(photo_values(spec, fast))
         result["fast_ms"] = 1000 * (time.perf_counter() - started)  # the encoder and the colour imitator's fit
@@ -157,7 +158,8 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
             raise VtoError(f"--quality {quality.lower()} {NO_REGION} (not --whole-image)")
         started = time.perf_counter()
         renders = []
-        fitted = drain(iter_fit_photo(spec, prepared.region, values, quality, samples=samples),
+        fitted = drain(iter_fit_photo(spec, prepared.region, encoder, quality, samples=samples,
+                                      others=({k: values[k] for k in spec.modelled},)),
                        renders.append)
         result.update(params=spec.full_values(photo_values(spec, fitted)), refined=True, method=quality.lower(),
                       renders=renders[-1],

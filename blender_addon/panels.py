@@ -63,7 +63,7 @@ def draw_quality(column, props, renderer: str) -> None:
 
 
 def quality_cost(renderer: str, quality: str) -> str:
-    """'Fast: no render, milliseconds' or 'Better: 25 renders, 3-13 s' (FIT_QUALITY, FIT_SECONDS)."""
+    """'Fast: no render, milliseconds' or 'Better: 25 renders, 4-17 s' (FIT_QUALITY, FIT_SECONDS)."""
     if quality == "FAST":
         return "Fast: no render, milliseconds"
     renders = FIT_QUALITY[renderer][quality][1]

@@ -7,7 +7,8 @@ cannot be compared with it pixel by pixel. What can be compared is the region's 
 (Levenberg-Marquardt from the encoder's estimate, with a pull back towards it) move the parameters until the default
 scene's lips (or hair) show the photo's statistics. Fast asks the colour imitator (vto_core.colour_imitator) what the
 default scene would show; Better and Best render it (blender_addon.refine's fit), the lips on the sources whose skin
-looks most like the photo's, lit as the photo's skin is. Those sources are seeds of their own (LIPS_POOL,
+looks most like the photo's, their skin and bare lips toned so the render's skin shows the photo's skin colour (the
+scene's light and skin fitted as far as the skin shows them). Those sources are seeds of their own (LIPS_POOL,
 FIT_SOURCES), never the ones the benchmarks measure the estimate on.
 """
 
@@ -28,7 +29,7 @@ from vto_core.specs import RendererSpec
 # the fit picks the sources whose skin is most like the photo's from; hair: its sources in order.
 LIPS_POOL = tuple(range(900001, 900025))
 FIT_SOURCES = (900001, 900002, 900003, 900004)
-MAX_GAIN = 4.0  # the exposure gain that lights a source's skin as the photo's: at most 2 stops either way
+MAX_TONE_RATIO = 4.0  # a source's skin tone is scaled (linear, per channel) by at most this either way
 QUALITIES = ("FAST", "BETTER", "BEST")  # the panel's choice: no render (the colour imitator), or FIT_QUALITY's renders
 NO_REGION = ("fits the colour of the lips and needs to know where they are: let the add-on find them (Find Lips), or "
              "give a mask")
@@ -37,7 +38,7 @@ FIT_QUALITY = {"lipstick": {"BETTER": (1, 25), "BEST": (2, 100)}, "hair": {"BETT
 # (seconds, seconds the first time in a session) each takes on a 2-core CPU, what the panel tells the artist:
 # benchmarks/results/real_photos.md and real_window.md, rounded up. The first fit also renders its default sources
 # (lips: a pool of 24, bare and masked; hair: its regions).
-FIT_SECONDS = {"lipstick": {"BETTER": (3, 13), "BEST": (10, 20)}, "hair": {"BETTER": (2, 4), "BEST": (6, 10)}}
+FIT_SECONDS = {"lipstick": {"BETTER": (4, 17), "BEST": (11, 24)}, "hair": {"BETTER": (2, 4), "BEST": (6, 10)}}
 FIT_RES = 64
 # The statistics leave looks ambiguous (a thin white layer with a strong coat can show the lips' colour too): each
 # unit of distance from the encoder's estimate costs this many CIELAB units, so the fit keeps the encoder's reading
@@ -59,16 +60,18 @@ def _hair_region(source: int, res: int, samples: int):
     return render_hair_source(source, res, samples, 0)
 
 
-def region_renderer(renderer: str, source: int, res: int = FIT_RES,
-                    samples: int = DEFAULT_SAMPLES) -> Callable[[dict[str, float]], tuple[np.ndarray, np.ndarray]]:
-    """values -> (render (res, res, 3), its region mask (res, res)) on default-scene `source`: the lips, or the hair
-    of a hair region (rendered once per process)."""
+def region_renderer(renderer: str, source: int, res: int = FIT_RES, samples: int = DEFAULT_SAMPLES,
+                    tones: tuple[np.ndarray, np.ndarray] | None = None
+                    ) -> Callable[[dict[str, float]], tuple[np.ndarray, np.ndarray]]:
+    """values -> (render (res, res, 3), its region mask (res, res)) on default-scene `source`: the lips (their skin
+    and bare lips in `tones`, sRGB (3,) each, where given), or the hair of a hair region (rendered once per
+    process)."""
     if renderer == "lipstick":
         from .lipstick import render_lipstick
         from .scene_lips import lips_mask
 
         mask = lips_mask(source, res)
-        return lambda values: (render_lipstick(values, source, res, samples, 0), mask)
+        return lambda values: (render_lipstick(values, source, res, samples, 0, tones=tones), mask)
     from .hair import run_hair_stage
 
     hair = _hair_region(source, res, samples)
@@ -96,10 +99,10 @@ _LIPS_POOLS: dict[tuple[int, int], tuple] = {}
 
 
 def iter_lips_pool(res: int, samples: int):
-    """The lipstick fit's candidate sources, rendered once per session and size: (seed, lips mask, skin light
-    (vto_core.appearance.skin_light)) each. A generator: yields 0 after each source (the UI stays live; these renders
-    are not the fit's), returns the pool."""
-    from vto_core.appearance import skin_light
+    """The lipstick fit's candidate sources, rendered bare once per session and size: (seed, its skin's mean CIELAB
+    (3,), its skin's mean linear RGB (3,)) each (vto_core.appearance.skin_light, skin_colour). A generator: yields 0
+    after each source (the UI stays live; these renders are not the fit's), returns the pool."""
+    from vto_core.appearance import skin_colour, skin_light
 
     from .lipstick import render_lipstick
     from .scene_lips import lips_mask
@@ -108,43 +111,61 @@ def iter_lips_pool(res: int, samples: int):
         pool = []
         for seed in LIPS_POOL:
             mask = lips_mask(seed, res)
-            pool.append((seed, mask, skin_light(render_lipstick({"opacity": 0.0}, seed, res, samples, 0), mask)))
+            bare = render_lipstick({"opacity": 0.0}, seed, res, samples, 0)
+            pool.append((seed, skin_light(bare, mask)[1], skin_colour(bare, mask)))
             yield 0
         _LIPS_POOLS[(res, samples)] = tuple(pool)
     return _LIPS_POOLS[(res, samples)]
 
 
+def fitted_tones(seed: int, rendered_skin: np.ndarray, photo_skin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Skin and bare-lips sRGB tones (3,) for default source `seed` such that its rendered skin, whose mean linear
+    RGB with its own tone is `rendered_skin` (3,), shows `photo_skin` (3,, linear): the seed's skin tone scaled per
+    channel (within MAX_TONE_RATIO), the lips the scene's typical lips for that skin (scene_lips.lip_tone)."""
+    from vto_core.colour import linear_to_srgb, srgb_to_linear
+
+    from .scene_lips import lip_tone, source_tones
+
+    ratio = np.clip(np.asarray(photo_skin, np.float64) / np.maximum(rendered_skin, 1e-6), 1 / MAX_TONE_RATIO,
+                    MAX_TONE_RATIO)
+    skin = linear_to_srgb(np.clip(srgb_to_linear(source_tones(seed)[0]) * ratio, 0.0, 1.0))
+    return skin, lip_tone(skin)
+
+
 def iter_lips_fit_sources(region: tuple[np.ndarray, np.ndarray], count: int, res: int, samples: int):
     """The `count` default lips sources whose skin looks most like the photo's (CIEDE2000 of the skin around the
-    lips), each with the exposure gain that lights its skin as the photo's is lit. A generator (iter_lips_pool's
-    yields); returns [(render fn, gain)]."""
-    from vto_core.appearance import skin_light
+    lips), each toned (fitted_tones) so its skin shows the photo's skin colour. A generator (iter_lips_pool's
+    yields); returns [render fn (region_renderer)]."""
+    from vto_core.appearance import skin_colour, skin_light
     from vto_core.colour import ciede2000
 
-    light = skin_light(*region)
+    light, photo_skin = skin_light(*region), skin_colour(*region)
     pool = yield from iter_lips_pool(res, samples)
-    if light is None:  # a close crop shows no skin: the first sources, unscaled
-        chosen = [(seed, 1.0) for seed, _, _ in pool[:count]]
-    else:
-        order = np.argsort([ciede2000(light[1], skin[1]) for _, _, skin in pool])
-        chosen = [(pool[i][0], float(np.clip(light[0] / pool[i][2][0], 1 / MAX_GAIN, MAX_GAIN))) for i in order[:count]]
-    return [(region_renderer("lipstick", seed, res, samples), gain) for seed, gain in chosen]
+    if light is None:  # a close crop shows no skin: the first sources as they are
+        return [region_renderer("lipstick", seed, res, samples) for seed, _, _ in pool[:count]]
+    order = np.argsort([ciede2000(light[1], lab) for _, lab, _ in pool])
+    return [region_renderer("lipstick", pool[i][0], res, samples, fitted_tones(pool[i][0], pool[i][2], photo_skin))
+            for i in order[:count]]
 
 
 def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float], quality: str,
-                   res: int = FIT_RES, samples: int = DEFAULT_SAMPLES):
+                   res: int = FIT_RES, samples: int = DEFAULT_SAMPLES, others: tuple[dict[str, float], ...] = ()):
     """Fit the modelled parameters so the default scene's lips (or hair) show the colour statistics
-    (vto_core.appearance.region_statistics) of `region` (the photo (H, W, 3) and its lips or hair mask (H, W)), from
-    `start` (modelled raw values), with the sources and renders of FIT_QUALITY[renderer][quality].
+    (vto_core.appearance.region_statistics) of `region` (the photo (H, W, 3) and its lips or hair mask (H, W)), with
+    the sources and renders of FIT_QUALITY[renderer][quality].
 
-    Lips: the sources are those of LIPS_POOL whose skin looks most like the photo's, each render scaled by the gain
-    that lights its skin as the photo's skin is lit (a scene whose light and skin tone are fitted, as far as the skin
-    shows them). Hair: FIT_SOURCES' hair regions, as rendered.
+    The fit starts from `start` (modelled raw values) or, where `others` gives more candidates, from the candidate
+    whose render already shows the photo's statistics best (each costs one render a source, inside the budget); the
+    fit keeps near that start where the photo does not ask otherwise (PRIOR_WEIGHT). Match passes the encoder's
+    estimate and Fast's: on renders the encoder's is the better start (Fast has read the reference's light into the
+    look), on real photos mostly Fast's (the lipstick model card).
+    Lips: the sources are those of LIPS_POOL whose skin looks most like the photo's, toned so their skin shows the
+    photo's skin colour (a scene whose light and skin tone are fitted, as far as the skin shows them; the bare lips
+    follow the skin). Hair: FIT_SOURCES' hair regions, as rendered.
     A generator: yields renders made so far (0 while the first fit of a session renders its lips sources); returns
     the fitted modelled values (raw, inside their ranges).
     """
     from vto_core.appearance import region_statistics
-    from vto_core.colour import linear_to_srgb, srgb_to_linear
 
     from .refine import iter_refine_by_render
 
@@ -155,23 +176,32 @@ def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
     if spec.renderer == "lipstick":
         sources = yield from iter_lips_fit_sources(region, count, res, samples)
     else:
-        sources = [(region_renderer(spec.renderer, seed, res, samples), 1.0) for seed in FIT_SOURCES[:count]]
+        sources = [region_renderer(spec.renderer, seed, res, samples) for seed in FIT_SOURCES[:count]]
+    photo = region_statistics(*region)
+
+    def shown(values: dict[str, float]) -> np.ndarray:
+        return np.mean([region_statistics(*render(spec.full_values(photo_values(spec, values)))) for render in sources],
+                       axis=0)
+
+    candidates, evaluations = [start, *others], renders // count
+    if len(candidates) > 1:
+        distances = []
+        for candidate in candidates:
+            distances.append(float(np.linalg.norm(shown(candidate) - photo)))
+            yield count * len(distances)
+        start, evaluations = candidates[int(np.argmin(distances))], evaluations - len(candidates)
     unit, wraps, held = fit_start(spec, start)
 
-    def shown(render, gain: float, values: dict[str, float]) -> np.ndarray:
-        rgb, mask = render(values)
-        return region_statistics(rgb if gain == 1.0 else linear_to_srgb(srgb_to_linear(rgb) * gain), mask)
-
     def statistics_at(trial: np.ndarray) -> np.ndarray:
-        values = spec.values(spec.denormalise(trial))
-        seen = np.mean([shown(render, gain, values) for render, gain in sources], axis=0)
+        seen = shown(spec.values(spec.denormalise(trial)))
         return np.concatenate([seen, PRIOR_WEIGHT[spec.renderer] * parameter_difference(trial, unit, wraps)])
 
-    target = np.concatenate([region_statistics(*region), np.zeros(spec.size)])
-    steps = iter_refine_by_render(statistics_at, target, unit, renders // count, wraps=wraps, held=held, search="fit")
+    spent = renders // count - evaluations
+    steps = iter_refine_by_render(statistics_at, np.concatenate([photo, np.zeros(spec.size)]), unit, evaluations,
+                                  wraps=wraps, held=held, search="fit")
     while True:
         try:
-            yield count * next(steps)
+            yield count * (spent + next(steps))
         except StopIteration as done:
             fitted = spec.values(spec.denormalise(done.value.unit))
             return {name: float(fitted[name]) for name in spec.modelled}

@@ -7,6 +7,7 @@ Blender-relative ('//') paths.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import warnings
@@ -41,9 +42,21 @@ def load_reference(image_path: str) -> np.ndarray:
     """The reference image (H, W, 3), NaN-free and clipped to [0, 1]; one-line errors for what cannot serve.
 
     A few NaN or infinite pixels (an EXR from a bad render) are read as 0 or 1 with a warning; all of them is an error.
+    The last file read is kept (by path, modification time and size), so a second Match on the same photo does not
+    decode it again; each call gets its own copy.
     """
     if not os.path.isfile(image_path):
         raise VtoError(f"no image at {image_path}")
+    stat = os.stat(image_path)
+    reference, bad = _decoded_reference(image_path, stat.st_mtime_ns, stat.st_size)
+    if bad:
+        warnings.warn(f"{image_path}: {bad} NaN or infinite pixel(s) read as 0 (NaN, -inf) or 1 (+inf)", stacklevel=2)
+    return reference.copy()
+
+
+@functools.lru_cache(maxsize=1)
+def _decoded_reference(image_path: str, mtime_ns: int, size: int) -> tuple[np.ndarray, int]:
+    """load_reference's work for one version of a file: (the image, read-only; its count of non-finite pixels)."""
     reference, _ = read_image(image_path)
     if reference.shape[0] < MIN_SIZE or reference.shape[1] < MIN_SIZE:
         raise VtoError(f"{image_path}: image is {reference.shape[1]}x{reference.shape[0]}; at least {MIN_SIZE}x{MIN_SIZE} "
@@ -51,9 +64,9 @@ def load_reference(image_path: str) -> np.ndarray:
     bad = int((~np.isfinite(reference)).any(axis=-1).sum())
     if bad == reference.shape[0] * reference.shape[1]:
         raise VtoError(f"{image_path}: every pixel is NaN or infinite; nothing to estimate from")
-    if bad:
-        warnings.warn(f"{image_path}: {bad} NaN or infinite pixel(s) read as 0 (NaN, -inf) or 1 (+inf)", stacklevel=2)
-    return np.clip(np.nan_to_num(reference, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+    reference = np.clip(np.nan_to_num(reference, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+    reference.flags.writeable = False
+    return reference, bad
 
 
 def at_size(image: np.ndarray, height: int, width: int) -> np.ndarray:

@@ -33,6 +33,7 @@ MOUTH_DEPTH = 0.35
 # sRGB 8-bit tones, light to dark.
 SKIN_TONES = [(241, 194, 167), (224, 172, 138), (198, 146, 110), (161, 110, 75), (118, 78, 52), (80, 52, 36)]
 LIP_TONE_SHIFT = (-0.06, -0.22, -0.18)  # lips: a redder, darker version of the skin tone
+LIP_SHIFT_RANGE = (0.6, 1.3)  # how much of LIP_TONE_SHIFT a source's bare lips take
 DEFAULT_LIGHTING = "portrait"
 
 
@@ -153,9 +154,33 @@ def build_lips_scene() -> bpy.types.Scene:
     return scene
 
 
-def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
-    """Set shape, tones, lighting and camera of the lips scene from `source_seed`, in place."""
-    rng = np.random.default_rng([int(source_seed), 0x11B5])
+def lip_tone(skin: np.ndarray, shift: float = float(np.mean(LIP_SHIFT_RANGE))) -> np.ndarray:
+    """The bare lips' sRGB tone (3,) for a skin's sRGB tone (3,): redder and darker by `shift` x LIP_TONE_SHIFT."""
+    return np.clip(np.asarray(skin, np.float64) + np.array(LIP_TONE_SHIFT) * shift, 0.02, 1)
+
+
+def _draw_tones(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    tone = np.array(SKIN_TONES[rng.integers(len(SKIN_TONES))], dtype=np.float64) / 255.0
+    tone = np.clip(tone * rng.uniform(0.92, 1.08, 3), 0, 1)
+    return tone, lip_tone(tone, rng.uniform(*LIP_SHIFT_RANGE))
+
+
+def _source_rng(source_seed: int) -> np.random.Generator:
+    return np.random.default_rng([int(source_seed), 0x11B5])
+
+
+def source_tones(source_seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """The sRGB tones (3,) of the skin and the bare lips that `source_seed` gives the scene (no bpy needed)."""
+    rng = _source_rng(source_seed)
+    lip_shape(rng)
+    return _draw_tones(rng)
+
+
+def apply_source(scene: bpy.types.Scene, source_seed: int,
+                 tones: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+    """Set shape, tones, lighting and camera of the lips scene from `source_seed`, in place; `tones` (the skin's and
+    the bare lips' sRGB (3,) each) replace the seed's own tones where given."""
+    rng = _source_rng(source_seed)
     shape = lip_shape(rng)
     lips = scene.objects[LIPS_OBJECT]
     lips.data.vertices.foreach_set("co", lip_vertices(shape).reshape(-1))
@@ -166,13 +191,13 @@ def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
     lips.data.update()
     skin.data.update()
 
-    tone = np.array(SKIN_TONES[rng.integers(len(SKIN_TONES))], dtype=np.float64) / 255.0
-    tone = np.clip(tone * rng.uniform(0.92, 1.08, 3), 0, 1)
-    lip_tone = np.clip(tone + np.array(LIP_TONE_SHIFT) * rng.uniform(0.6, 1.3), 0.02, 1)
+    tone, lips_tone = _draw_tones(rng)  # drawn even where `tones` replaces them: the light and camera draws follow
+    if tones is not None:
+        tone, lips_tone = (np.clip(np.nan_to_num(np.asarray(t, np.float64)), 0, 1) for t in tones)
     skin_material = bpy.data.materials[SKIN_MATERIAL].node_tree.nodes
     skin_material["Skin Or Mouth"].inputs[6].default_value = (*srgb_to_linear(tone), 1.0)
     lips_material = bpy.data.materials[LIPS_MATERIAL].node_tree.nodes
-    lips_material["Bare Lips"].inputs["Base Color"].default_value = (*srgb_to_linear(lip_tone), 1.0)
+    lips_material["Bare Lips"].inputs["Base Color"].default_value = (*srgb_to_linear(lips_tone), 1.0)
 
     if scene.get("vto_lighting", DEFAULT_LIGHTING) == "portrait":
         randomise_portrait(scene, rng)
@@ -183,6 +208,18 @@ def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
     camera.location = (rng.normal(0, 0.08), rng.normal(-0.05, 0.08), rng.uniform(3.6, 4.4))
     camera.rotation_euler = (rng.normal(0, 0.02), rng.normal(0, 0.02), rng.normal(0, 0.04))
     scene["vto_source_seed"] = int(source_seed)
+    scene["vto_source_tones"] = tones_key(tones)
+
+
+def tones_key(tones: tuple[np.ndarray, np.ndarray] | None) -> list[float]:
+    """What the scene records of the tones a source was applied with ([] for the seed's own)."""
+    return [] if tones is None else [round(float(v), 6) for t in tones for v in t]
+
+
+def applied(scene: bpy.types.Scene, source_seed: int, tones: tuple[np.ndarray, np.ndarray] | None = None) -> bool:
+    """Whether `scene` shows `source_seed` with `tones` already (apply_source would change nothing)."""
+    return (scene.get("vto_source_seed") == int(source_seed)
+            and list(scene.get("vto_source_tones", [])) == tones_key(tones))
 
 
 def use_lighting(scene: bpy.types.Scene, lighting: str | None = None) -> None:

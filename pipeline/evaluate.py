@@ -278,9 +278,10 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
                 spent_before = ms["encoder"]
             elif kind == "photo":
                 region = photo_region(spec.renderer, on_a, reference, source_a, settings)
-                fast = fit_photo_fast(spec, region, {k: estimates["encoder"][k] for k in spec.modelled})[0]
+                encoder = {k: estimates["encoder"][k] for k in spec.modelled}
+                fast = fit_photo_fast(spec, region, encoder)[0]
                 estimates[name] = spec.full_values(fast if amount == "FAST" else drain(iter_fit_photo(
-                    spec, region, fast, amount, settings.res, settings.samples)))
+                    spec, region, encoder, amount, settings.res, settings.samples, others=(fast,))))
                 ms[name] = ms["encoder"] + 1000 * (time.perf_counter() - started)
                 continue
             elif kind == "other encoder":

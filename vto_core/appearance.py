@@ -71,6 +71,17 @@ def skin_around(lips: np.ndarray) -> np.ndarray:
     return skin
 
 
+def skin_colour(rgb: np.ndarray, lips: np.ndarray) -> np.ndarray | None:
+    """The mean linear RGB (3,) of the skin around the lips (skin_around), or None where fewer than MIN_PIXELS of it
+    are in the image (a close crop)."""
+    from .colour import srgb_to_linear
+
+    skin = skin_around(lips)
+    if skin.sum() < MIN_PIXELS:
+        return None
+    return srgb_to_linear(region_pixels(rgb, skin)).mean(axis=0, dtype=np.float64)
+
+
 def skin_light(rgb: np.ndarray, lips: np.ndarray) -> tuple[float, np.ndarray] | None:
     """How the skin around the lips is lit: (its mean linear luminance, its mean CIELAB (3,)), or None where fewer
     than MIN_PIXELS of it are in the image (a close crop)."""

@@ -14,7 +14,7 @@ from blender_addon.photo_fit import (FIT_QUALITY, LIPS_POOL, apparent_colour, it
 from blender_addon.refine import drain  # noqa: E402
 from blender_addon.scene_lips import lips_mask  # noqa: E402
 from blender_addon.scratch import scratch_data  # noqa: E402
-from vto_core.appearance import mean_colour  # noqa: E402
+from vto_core.appearance import mean_colour, skin_light  # noqa: E402
 from vto_core.colour import ciede2000, srgb_to_lab  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.specs import get_spec  # noqa: E402
@@ -60,7 +60,13 @@ def test_the_lips_fit_picks_sources_with_the_photos_skin_and_moves_towards_its_c
     mask = lips_mask(source, RES)
     region = (render_lipstick(truth, source, RES, 8, 0), mask)
     chosen = drain(iter_lips_fit_sources(region, 2, RES, 8))
-    assert len(chosen) == 2 and all(0.25 <= gain <= 4.0 for _, gain in chosen)
+    photo_skin = skin_light(*region)[1]
+    pool_skin = min(ciede2000(photo_skin, skin_light(render_lipstick({"opacity": 0.0}, seed, RES, 8, 0),
+                                                     lips_mask(seed, RES))[1]) for seed in LIPS_POOL)
+    toned_skin = [ciede2000(photo_skin, skin_light(*render({"opacity": 0.0}))[1]) for render in chosen]
+    # toned towards the photo's skin: each closer than the pool's closest as it is (0.8 and 2.7 against 4.6)
+    assert len(chosen) == 2 and max(toned_skin) < pool_skin and min(toned_skin) < 0.5 * pool_skin, (toned_skin,
+                                                                                                   pool_skin)
     start = {**truth, "red": 120.0, "green": 120.0, "blue": 60.0}  # an olive guess
     fitted = drain(iter_fit_photo(spec, region, start, "BETTER", RES, 8))
     before = np.abs(np.array([start[c] - truth[c] for c in ("red", "green", "blue")])).mean()
@@ -69,10 +75,11 @@ def test_the_lips_fit_picks_sources_with_the_photos_skin_and_moves_towards_its_c
     assert all(spec.by_name[n].low <= v <= spec.by_name[n].high for n, v in fitted.items())
 
 
-def test_a_close_crop_without_skin_uses_the_pools_first_sources_unscaled():
+def test_a_close_crop_without_skin_uses_the_pools_first_sources_as_they_are():
     lips = np.ones((RES, RES), np.float32)  # lips fill the picture: no skin around them
     chosen = drain(iter_lips_fit_sources((np.full((RES, RES, 3), 0.5, np.float32), lips), 2, RES, 8))
-    assert [gain for _, gain in chosen] == [1.0, 1.0]
+    for render, seed in zip(chosen, LIPS_POOL[:2], strict=True):
+        np.testing.assert_array_equal(render({"opacity": 0.0})[0], render_lipstick({"opacity": 0.0}, seed, RES, 8, 0))
     assert len(LIPS_POOL) >= 16
 
 
@@ -96,3 +103,24 @@ def test_scratch_data_removes_what_was_made_inside_and_keeps_the_rest():
         bpy.data.images.new("scratch image", 4, 4)
         raise RuntimeError("a fit that failed")
     assert "scratch image" not in bpy.data.images
+
+
+def test_the_fit_starts_from_the_candidate_whose_render_already_shows_the_photo():
+    """Candidates (Match passes the encoder's estimate and Fast's): each rendered once inside the budget; the fit
+    starts from the one whose render is nearest the photo, here the truth, whatever their order."""
+    spec = get_spec("hair")
+    photo = render_hair_source(7, RES, 8)
+    truth = {"brightness": 0.1, "contrast": 1.3, "exposure": 1.4, "gamma": 1.5, "hue": 0.05, "saturation": 0.7}
+    truth = {name: truth.get(name, spec.by_name[name].default) for name in spec.modelled}
+    region = (run_hair_stage(photo, truth), photo.mask)
+    far = {**truth, "hue": 0.6, "saturation": 2.5, "gamma": 0.7}
+    count, budget = FIT_QUALITY["hair"]["BETTER"]
+    renders = []
+    fitted = drain(iter_fit_photo(spec, region, far, "BETTER", RES, 8, others=(truth,)), renders.append)
+    assert renders[:2] == [count, 2 * count] and renders[-1] == budget and renders == sorted(renders)
+    assert fitted == drain(iter_fit_photo(spec, region, truth, "BETTER", RES, 8, others=(truth,)))
+    assert fitted == drain(iter_fit_photo(spec, region, truth, "BETTER", RES, 8, others=(far,)))
+    from_far = drain(iter_fit_photo(spec, region, far, "BETTER", RES, 8, others=(far,)))
+    assert fitted != from_far
+    colour = mean_colour(*region)
+    assert delta_e(colour, apparent_colour("hair", photo_values(spec, fitted), [900001], RES, 8)["mean"]) < 2

@@ -81,3 +81,25 @@ def test_a_lips_mask_frames_the_reference_and_is_its_region_and_whole_image_take
     assert np.array_equal(framed.region[1], mask[19:71, 24:76])
     plain = lips_reference(whole, find_lips=False)
     assert plain.box == (0, 0, 100, 100) and plain.region is None and np.array_equal(plain.image, whole)
+
+
+def test_a_photo_read_again_is_decoded_once_until_its_file_changes(tmp_path, monkeypatch):
+    """Warm clicks on the same photo skip decoding it; each call gets its own copy, and its warnings."""
+    from blender_addon import reference as module
+    from vto_core.imageio import write_image
+
+    path = tmp_path / "photo.exr"
+    image = np.full((20, 20, 3), 0.25, np.float32)
+    image[0, 0] = np.nan
+    write_image(path, image)
+    decoded = []
+    read = module.read_image
+    monkeypatch.setattr(module, "read_image", lambda name: decoded.append(name) or read(name))
+    with pytest.warns(UserWarning, match="1 NaN"):
+        first = module.load_reference(str(path))
+    first[:] = 1.0  # the caller's own copy
+    with pytest.warns(UserWarning, match="1 NaN"):
+        second = module.load_reference(str(path))
+    assert len(decoded) == 1 and second[0, 0].tolist() == [0, 0, 0] and np.allclose(second[1:], 0.25)
+    write_image(path, np.full((24, 20, 3), 0.75, np.float32))  # a new version of the file
+    assert np.allclose(module.load_reference(str(path)), 0.75) and len(decoded) == 2

@@ -252,3 +252,25 @@ def test_a_blender_without_openimagedenoise_renders_undenoised():
     scene = SimpleNamespace(cycles=NoDenoiser())
     set_render_quality(scene, 8, 3)
     assert scene.cycles.use_denoising is False and scene.cycles.samples == 8 and scene.cycles.seed == 3
+
+
+def test_tones_replace_a_lips_sources_skin_and_lips_and_leave_its_light_and_shape():
+    """render_lipstick's tones: the skin and bare lips take them (the skin reads the tone's colour), the source's
+    light, shape and camera stay (the lips mask is the source's), and the next render without them is the seed's own
+    again (scene_lips.source_tones says what they are)."""
+    from blender_addon.scene_lips import lip_tone, lips_mask, source_tones
+    from vto_core.appearance import skin_light
+    from vto_core.colour import ciede2000, srgb_to_lab
+
+    source, bare = 4, {"opacity": 0.0}
+    own = render_lipstick(bare, source, 32, 8, 0)
+    skin, lips = source_tones(source)
+    assert np.all((0 <= skin) & (skin <= 1)) and np.all(lips < skin)  # the bare lips: darker than the skin
+    pale = np.array([0.95, 0.85, 0.8])
+    toned = render_lipstick(bare, source, 32, 8, 0, tones=(pale, lip_tone(pale)))
+    mask = lips_mask(source, 32)
+    own_skin, toned_skin = skin_light(own, mask)[1], skin_light(toned, mask)[1]
+    assert toned_skin[0] > own_skin[0] + 5  # a paler skin than source 4's
+    assert ciede2000(toned_skin, srgb_to_lab(pale)) < ciede2000(own_skin, srgb_to_lab(pale))
+    np.testing.assert_array_equal(render_lipstick(bare, source, 32, 8, 0), own)  # its own tones again
+    np.testing.assert_array_equal(own, render_lipstick(bare, source, 32, 8, 0, tones=(skin, lips)))

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from vto_core.appearance import MEAN_WEIGHT, body_colour, mean_colour, region_statistics
-from vto_core.colour import srgb_to_lab
+from vto_core.appearance import MEAN_WEIGHT, body_colour, mean_colour, region_statistics, skin_colour
+from vto_core.colour import srgb_to_lab, srgb_to_linear
 from vto_core.errors import VtoError
 
 
@@ -50,3 +50,15 @@ def test_extremes_are_finite_and_an_empty_region_is_one_line():
         region_statistics(np.zeros((8, 8, 3)), np.zeros((8, 8)))
     with pytest.raises(VtoError, match="mask"):
         region_statistics(np.zeros((8, 8, 3)), np.ones((4, 4)))
+
+
+def test_the_skin_colour_is_the_linear_mean_beside_the_lips_and_none_without_skin():
+    rgb = np.full((40, 40, 3), (0.9, 0.6, 0.5), np.float32)
+    lips = np.zeros((40, 40), np.float32)
+    lips[18:22, 12:28] = 1.0
+    rgb[18:22, 12:28] = (0.7, 0.1, 0.2)  # the lips' own colour does not count
+    rgb[17:23, 11:29] = np.where(lips[17:23, 11:29, None] > 0, rgb[17:23, 11:29], (0.1, 0.1, 0.1))  # nor the mouth's
+    np.testing.assert_allclose(skin_colour(rgb, lips), srgb_to_linear(np.array([0.9, 0.6, 0.5])), rtol=1e-5)
+    assert skin_colour(rgb, np.ones((40, 40))) is None  # lips fill the picture: a close crop shows no skin
+    assert skin_colour(rgb, np.zeros((40, 40))) is None
+    assert np.isfinite(skin_colour(np.full((40, 40, 3), np.nan), lips)).all()
