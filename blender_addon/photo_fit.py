@@ -4,8 +4,8 @@ colour imitator (Fast) or the real renderer on default-scene sources (Better, Be
 A photo of real lips (or of an artist's reference hair) has no source X to render the estimate on, so the render
 cannot be compared with it pixel by pixel. What can be compared is the region's colour statistics
 (vto_core.appearance: its mean colour, the spread of its lightness up to the highlights, its chroma): the fits
-(Levenberg-Marquardt from the encoder's estimate, with a pull back towards it) move the parameters until the default
-scene's lips (or hair) show the photo's statistics. Fast asks the colour imitator (vto_core.colour_imitator) what the
+(Levenberg-Marquardt from the encoder's estimate or Fast's, with a pull back towards it) move the parameters until
+the default scene's lips (or hair) show the photo's statistics. Fast asks the colour imitator (vto_core.colour_imitator) what the
 default scene would show; Better and Best render it (blender_addon.refine's fit), the lips on the sources whose skin
 looks most like the photo's, their skin and bare lips toned so the render's skin shows the photo's skin colour (the
 scene's light and skin fitted as far as the skin shows them). Those sources are seeds of their own (LIPS_POOL,
