@@ -38,7 +38,8 @@ def delta_e(a: np.ndarray, b: np.ndarray) -> float:
 
 def estimates(session, region: tuple[np.ndarray, np.ndarray], qualities) -> dict[str, tuple[dict, float]]:
     """quality -> (all values, ms): the encoder on the region's largest hair square fitted through the colour imitator
-    (Fast), or through the stage from it or the encoder's (Better); as a Match does (blender_addon.apply.iter_compute)."""
+    (Fast), or through the stage from it or the encoder's (Better); as a Match does
+    (blender_addon.apply.iter_compute)."""
     from blender_addon.photo_fit import fit_photo_fast, iter_fit_photo, photo_values
     from blender_addon.reference import hair_reference
     from blender_addon.refine import drain

@@ -77,8 +77,8 @@ def speed(repeats: int) -> str:
             + "\n\nReproduce: `python -m benchmarks.bench_locator`.")
 
 
-def photo_records() -> list[tuple[str, np.ndarray, list | None, int]]:
-    """(name, image (H, W, 3) uint8, hand lips box or None, faces) of the real-photo set."""
+def photo_records() -> list[tuple[str, np.ndarray, list | None, int, bool]]:
+    """(name, image (H, W, 3) uint8, hand lips box or None, faces, held out) of the real-photo set."""
     import matplotlib.cbook
     from PIL import Image
     from skimage import data
@@ -95,8 +95,7 @@ def photo_records() -> list[tuple[str, np.ndarray, list | None, int]]:
         else:
             with Image.open(PHOTOS / name) as picture:
                 image = np.asarray(picture.convert("RGB"))
-        found.append((name + (" (held out)" if record.get("held_out") else ""), image, record["lips_box"],
-                      record["faces"]))
+        found.append((name, image, record["lips_box"], record["faces"], bool(record.get("held_out"))))
     return found
 
 
@@ -110,7 +109,8 @@ def accuracy() -> str:
         return ""
     locator = LipsLocator(MODELS / "face_detector.onnx", MODELS / "face_landmarks.onnx", threads=1)
     rows, ious, held_out = [], [], []
-    for name, image, hand_box, faces in records:
+    for name, image, hand_box, faces, held in records:
+        name += " (held out)" if held else ""
         try:
             found = locator.locate(image.astype(np.float32) / 255)
         except VtoError as error:
@@ -118,7 +118,7 @@ def accuracy() -> str:
             continue
         overlap = box_iou(found.box, hand_box) if hand_box else float("nan")
         ious += [overlap] if hand_box else []
-        held_out += [overlap] if hand_box and name.endswith("(held out)") else []
+        held_out += [overlap] if hand_box and held else []
         rows.append([name, f"{image.shape[1]}x{image.shape[0]}", faces, f"{found.how}, {found.faces} face(s)",
                      list(found.box), hand_box, f"{overlap:.2f}"])
     return ("## Lips found on the real-photo set\n\n"

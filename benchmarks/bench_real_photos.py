@@ -14,10 +14,10 @@ figure is CIEDE2000 between the two. Found: the IoU of the found lips' box with 
 Hair. The patch (hair only) goes in as a crop; the photo's colour is the patch's mean (and median); the estimate's
 is read likewise over the hair of its renders on default hair regions 0-7.
 The Better and Best fits render on default sources of their own (900001 and up), never 0-7.
-Photos marked held_out in photos.json were added after the methods and their settings were fixed, and were
-measured once: the summary gives them apart. Also: inputs with no lips (noise, a blank image, a landscape) must be refused in one line, and a photo with several
-faces must use the largest. Writes benchmarks/results/real_photos.md (a section each for lips and hair; --only
-lips|hair redoes one) and real_photos_lips.png, real_photos_hair.png.
+Photos marked held_out in photos.json were added after the methods and their settings were fixed: the summary gives
+them apart. Also: inputs with no lips (noise, a blank image, a landscape) must be refused in one line, and a photo
+with several faces must use the largest. Writes benchmarks/results/real_photos.md (a section each for lips and hair;
+--only lips|hair redoes one) and real_photos_lips.png, real_photos_hair.png.
 """
 
 from __future__ import annotations

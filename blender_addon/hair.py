@@ -61,8 +61,8 @@ def render_hair_source(source_seed: int, res: int = 64, samples: int = DEFAULT_S
 
 
 def own_source_held(spec: RendererSpec, start: dict[str, float]) -> dict[int, float]:
-    """{position in spec.modelled: unit value} of intensity and blend at full effect (vto_core.hair.PHOTO_HAIR), where the
-    spec models them, for iter_refine_by_render's `held`.
+    """{position in spec.modelled: unit value} of intensity and blend at full effect (vto_core.hair.PHOTO_HAIR),
+    where the spec models them, for iter_refine_by_render's `held`.
 
     A photo fixes them (photo_fit); and a photo refined as its own source would be undone by them: the stage recolours
     the photo's hair towards the swatch, so with intensity 0 or the fade moved below the hair (blend 1) it returns the

@@ -5,11 +5,11 @@ A photo of real lips (or of an artist's reference hair) has no source X to rende
 cannot be compared with it pixel by pixel. What can be compared is the region's colour statistics
 (vto_core.appearance: its mean colour, the spread of its lightness up to the highlights, its chroma): the fits
 (Levenberg-Marquardt from the encoder's estimate or Fast's, with a pull back towards it) move the parameters until
-the default scene's lips (or hair) show the photo's statistics. Fast asks the colour imitator (vto_core.colour_imitator) what the
-default scene would show; Better and Best render it (blender_addon.refine's fit), the lips on the sources whose skin
-looks most like the photo's, their skin and bare lips toned so the render's skin shows the photo's skin colour (the
-scene's light and skin fitted as far as the skin shows them). Those sources are seeds of their own (LIPS_POOL,
-FIT_SOURCES), never the ones the benchmarks measure the estimate on.
+the default scene's lips (or hair) show the photo's statistics. Fast asks the colour imitator
+(vto_core.colour_imitator) what the default scene would show; Better and Best render it (blender_addon.refine's fit),
+the lips on the sources whose skin looks most like the photo's, their skin and bare lips toned so the render's skin
+shows the photo's skin colour (the scene's light and skin fitted as far as the skin shows them). Those sources are
+seeds of their own (LIPS_POOL, FIT_SOURCES), never the ones the benchmarks measure the estimate on.
 """
 
 from __future__ import annotations
@@ -41,9 +41,9 @@ FIT_QUALITY = {"lipstick": {"BETTER": (1, 25), "BEST": (2, 100)}, "hair": {"BETT
 FIT_SECONDS = {"lipstick": {"BETTER": (4, 17), "BEST": (11, 24)}, "hair": {"BETTER": (2, 4), "BEST": (6, 10)}}
 FIT_RES = 64
 # The statistics leave looks ambiguous (a thin white layer with a strong coat can show the lips' colour too): each
-# unit of distance from the encoder's estimate costs this many CIELAB units, so the fit keeps the encoder's reading
-# where the photo does not ask for another. Hair statistics depend on the swatch alone (the stage matches the hair's
-# histogram to it), not on a scene: a weaker pull lets the fit go further.
+# unit of distance from the fit's start (the encoder's estimate or Fast's) costs this many CIELAB units, so the fit
+# keeps that reading where the photo does not ask for another. Hair statistics depend on the swatch alone (the stage
+# matches the hair's histogram to it), not on a scene: a weaker pull lets the fit go further.
 PRIOR_WEIGHT = {"lipstick": 8.0, "hair": 2.0}
 
 

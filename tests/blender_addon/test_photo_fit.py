@@ -10,7 +10,7 @@ bpy = pytest.importorskip("bpy")
 from blender_addon.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.lipstick import render_lipstick  # noqa: E402
 from blender_addon.photo_fit import (FIT_QUALITY, LIPS_POOL, apparent_colour, iter_fit_photo,  # noqa: E402
-                                     iter_lips_fit_sources, photo_values)
+                                     iter_lips_fit_sources, iter_lips_pool, photo_values)
 from blender_addon.refine import drain  # noqa: E402
 from blender_addon.scene_lips import lips_mask  # noqa: E402
 from blender_addon.scratch import scratch_data  # noqa: E402
@@ -45,7 +45,8 @@ def test_the_hair_fit_gives_the_default_hair_the_photos_colour_from_a_far_start(
 
 def test_a_photo_fixes_the_hair_stage_at_full_effect():
     spec = get_spec("hair", "hue,saturation,intensity,blend")
-    assert photo_values(spec, {"hue": 0.2, "intensity": 0.3, "blend": 0.5}) == {"hue": 0.2, "intensity": 1.0, "blend": -1.0}
+    assert photo_values(spec, {"hue": 0.2, "intensity": 0.3, "blend": 0.5}) == {"hue": 0.2, "intensity": 1.0,
+                                                                               "blend": -1.0}
     assert photo_values(get_spec("lipstick"), {"red": 9.0}) == {"red": 9.0}
     photo = render_hair_source(7, RES, 8)
     region = (run_hair_stage(photo, {"hue": 0.5}), photo.mask)
@@ -61,8 +62,7 @@ def test_the_lips_fit_picks_sources_with_the_photos_skin_and_moves_towards_its_c
     region = (render_lipstick(truth, source, RES, 8, 0), mask)
     chosen = drain(iter_lips_fit_sources(region, 2, RES, 8))
     photo_skin = skin_light(*region)[1]
-    pool_skin = min(ciede2000(photo_skin, skin_light(render_lipstick({"opacity": 0.0}, seed, RES, 8, 0),
-                                                     lips_mask(seed, RES))[1]) for seed in LIPS_POOL)
+    pool_skin = min(ciede2000(photo_skin, lab) for _, lab, _ in drain(iter_lips_pool(RES, 8)))  # bare, as rendered
     toned_skin = [ciede2000(photo_skin, skin_light(*render({"opacity": 0.0}))[1]) for render in chosen]
     # toned towards the photo's skin: each closer than the pool's closest as it is (0.8 and 2.7 against 4.6)
     assert len(chosen) == 2 and max(toned_skin) < pool_skin and min(toned_skin) < 0.5 * pool_skin, (toned_skin,
