@@ -1,7 +1,8 @@
 """The speed-accuracy trade at match time, measured in one `vto eval` run on one machine (issue 9, item 5).
 
 Methods: mean preset, nearest preset, encoder, encoder + imitator K, encoder + render search B (the fit through the
-renderer), encoder + CMA-ES search B, CMA-ES render search from the mean preset. Writes speed_accuracy.md (table,
+renderer), encoder + CMA-ES search B, CMA-ES render search from the mean preset, and what a photo gets (the panel's
+Fast, Better, Best, with the reference's source hidden: --photo). Writes speed_accuracy.md (table,
 machine) and speed_accuracy.png (the Pareto front) into --results.
 
     .venv/bin/python -m benchmarks.bench_speed_accuracy --model M.onnx --imitator RUN [--n 24] [--res 64]
@@ -28,12 +29,13 @@ def pareto(points: list[tuple[float, float, str]]) -> list[tuple[float, float, s
 
 
 def run(model: str, imitator: str | None, n: int, res: int, samples: int, seed: int, steps: list[int],
-        budgets: list[int], from_mean: list[int], results: Path, cma_budgets: tuple[int, ...] = ()) -> Path:
+        budgets: list[int], from_mean: list[int], results: Path, cma_budgets: tuple[int, ...] = (),
+        photo: tuple[str, ...] = ()) -> Path:
     """One eval with every method; the table and the plot land in `results`; returns the table's path."""
     from pipeline.evaluate import EvalSettings, run_eval
 
     refine = ([f"imitator:{k}" for k in steps] if imitator else []) + [f"render:{b}" for b in budgets]
-    refine += [f"cma:{b}" for b in cma_budgets]
+    refine += [f"cma:{b}" for b in cma_budgets] + [f"photo:{quality}" for quality in photo]
     settings = EvalSettings(n, res, samples, seed, tuple(refine), tuple(from_mean), imitator)
     started = time.perf_counter()
     with tempfile.TemporaryDirectory() as folder:
@@ -59,7 +61,8 @@ def run(model: str, imitator: str | None, n: int, res: int, samples: int, seed: 
               (f" --imitator {imitator} --steps {','.join(map(str, steps))}" if imitator else " --steps ''") +
               f" --n {n} --res {res} --samples {samples} --seed {seed} --budgets {','.join(map(str, budgets))}"
               f" --from-mean {','.join(map(str, from_mean))}"
-              + (f" --cma-budgets {','.join(map(str, cma_budgets))}" if cma_budgets else "") + "`."]
+              + (f" --cma-budgets {','.join(map(str, cma_budgets))}" if cma_budgets else "")
+              + (f" --photo {','.join(photo)}" if photo else "") + "`."]
     results.mkdir(parents=True, exist_ok=True)
     table = results / "speed_accuracy.md"
     table.write_text("\n".join(lines) + "\n")
@@ -104,6 +107,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--budgets", default="25,100", help="render search budgets B from the encoder")
     parser.add_argument("--cma-budgets", default="", help="CMA-ES search budgets B from the encoder")
     parser.add_argument("--from-mean", default="400", help="CMA-ES render search budgets B from the mean preset")
+    parser.add_argument("--photo", default="", help="the panel's qualities with the source hidden: fast,better,best")
     parser.add_argument("--results", default=str(RESULTS), help="folder for speed_accuracy.md and .png")
     args = parser.parse_args(argv)
 
@@ -111,7 +115,8 @@ def main(argv: list[str] | None = None) -> None:
         return [int(v) for v in text.split(",") if v.strip()]
 
     run(args.model, args.imitator, args.n, args.res, args.samples, args.seed, ints(args.steps), ints(args.budgets),
-        ints(args.from_mean), Path(args.results), tuple(ints(args.cma_budgets)))
+        ints(args.from_mean), Path(args.results), tuple(ints(args.cma_budgets)),
+        tuple(q for q in args.photo.split(",") if q))
 
 
 if __name__ == "__main__":

@@ -13,9 +13,11 @@ all feed the same function:
                                 hair (the encoder reads its largest square; Better and Best fit all of it)
     find_lips                   lipstick, no mask: find the lips with the face locator (default True); False takes
                                 the image (or crop) as it is
+    neutral_light               read the photo's light from the skin beside the lips and take it out (default
+                                True; blender_addon.reference)
     model_path                  the encoder; "" = the add-on preferences' path, else the shipped default
-    quality                     FAST (the encoder's estimate fitted to the colour of the photo's lips or hair
-                                through the colour imitator), BETTER, BEST (then through the real renderer:
+    quality                     FAST (the encoder's estimate; for hair fitted to the hair's colour through the
+                                colour imitator), BETTER, BEST (fitted through the real renderer:
                                 blender_addon.photo_fit)
 """
 
@@ -163,10 +165,11 @@ def prepare(renderer: str, settings: dict) -> dict:
 
 
 def iter_compute(prepared: dict):
-    """The encoder's estimate fitted to the colour statistics of the photo's lips or hair (blender_addon.photo_fit):
-    through the colour imitator (Fast, milliseconds), or, when the quality asks, through the real renderer on
-    default sources. A generator: yields renders made so far (none for Fast) and returns parameter -> raw value,
-    inside its range: the modelled ones and what a photo fixes (photo_fit.photo_values)."""
+    """The encoder's estimate of the photo with its light taken out (Fast; for hair fitted to the hair's colour
+    statistics through the colour imitator, milliseconds), or, when the quality asks, fitted to the colour statistics
+    through the real renderer on default sources (blender_addon.photo_fit). A generator: yields renders made so far
+    (none for Fast) and returns parameter -> raw value, inside its range: the modelled ones and what a photo fixes
+    (photo_fit.photo_values)."""
     spec, reference = prepared["spec"], prepared["reference"]
     values = encoder = estimate(prepared["session"], spec, reference.image)
     if reference.region is not None:

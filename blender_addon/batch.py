@@ -35,7 +35,8 @@ from .photo_fit import fit_photo_fast, photo_values
 from .reference import at_size, read_reference
 
 ESTIMATES = "estimates"
-READER = 2  # how photos are read (2: lips found, hair squares, Fast's colour fit): older estimates are redone
+READER = 3  # how photos are read (3: the light read from the skin and taken out, lips Fast the encoder): older
+# estimates are redone
 CHUNK = 32  # photos per encoder call
 
 
@@ -117,8 +118,8 @@ def _cache_key(image: Path, fingerprint: str) -> dict:
 
 
 def fast_values(spec, reference, values: dict[str, float]) -> dict[str, float]:
-    """What Fast writes for a photo: the encoder's `values` fitted through the colour imitator (where the photo's
-    region is known), with what a photo fixes (blender_addon.photo_fit)."""
+    """What Fast writes for a photo: the encoder's `values`, for hair fitted through the colour imitator (where the
+    photo's region is known), with what a photo fixes (blender_addon.photo_fit.fit_photo_fast)."""
     if reference.region is not None:
         values = fit_photo_fast(spec, reference.region, {k: values[k] for k in spec.modelled})[0]
     return spec.full_values(photo_values(spec, values))

@@ -82,6 +82,17 @@ def set_gaussian_blur(node) -> None:
         node.filter_type = "GAUSS"
 
 
+def set_blur_size(node, pixels: int) -> None:
+    """A compositor Blur node's radius in pixels: a two-value 'Size' input since 4.5; before, the size_x and size_y
+    properties (and 'Size' a factor on them, kept at 1)."""
+    size = node.inputs["Size"]
+    if hasattr(size.default_value, "__len__"):
+        size.default_value = (pixels, pixels)
+    else:
+        node.size_x = node.size_y = int(pixels)
+        size.default_value = 1.0
+
+
 def set_exr_output(settings: bpy.types.ImageFormatSettings, multilayer: bool) -> None:
     """Render to a (multilayer) EXR; 5.0 picks multilayer through the media type."""
     if not multilayer:

@@ -76,9 +76,10 @@ def linked_inputs(scene: bpy.types.Scene) -> list[str]:
 def render_lipstick(values: dict[str, float], source: int = 0, res: int | None = 64,
                     samples: int | None = DEFAULT_SAMPLES, seed: int = 0,
                     scene: bpy.types.Scene | None = None, lighting: str | None = None,
-                    tones: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+                    tones: tuple[np.ndarray, np.ndarray] | None = None, light_seed: int | None = None) -> np.ndarray:
     """R(X, g): display-sRGB image (res, res, 3) float32 of the lips `source`, lit the `lighting` way (None: the
-    default), wearing `values`; `tones` (sRGB (3,) of the skin and the bare lips) replace the source's own.
+    default), wearing `values`; `tones` (sRGB (3,) of the skin and the bare lips) replace the source's own, and the
+    light of source `light_seed` the source's own light where given.
 
     With `scene` given (a user's scene using the group) that scene is rendered with its own settings, only `values`
     and the res/samples given (not None) changing it; `source` is ignored.
@@ -88,8 +89,8 @@ def render_lipstick(values: dict[str, float], source: int = 0, res: int | None =
         return render_user_scene(scene, res, samples, seed)
     scene = build_lips_scene()
     use_lighting(scene, lighting)
-    if not applied(scene, source, tones):
-        apply_source(scene, int(source), tones)
+    if not applied(scene, source, tones, light_seed):
+        apply_source(scene, int(source), tones, light_seed)
     set_lipstick_values(scene, values)
     configure_cycles(scene, res, samples, seed)
     return to_display(render_passes(scene)["Combined"][..., :3])

@@ -101,7 +101,7 @@ def photo_source(image_path: Path) -> str | None:
 def match(model: str, image_path: str, source=None, refine: str = "none", imitator: str | None = None,
           res: int | None = None, samples: int = DEFAULT_SAMPLES, seed: int = 0, objective: str = "mse",
           start_at: str = "encoder", imitator_refine=None, lighting: str | None = None, quality: str = "fast",
-          crop=None, mask_path: str | None = None, find_lips: bool = True) -> dict:
+          crop=None, mask_path: str | None = None, find_lips: bool = True, neutral_light: bool = True) -> dict:
     """Estimate (and refine) the parameters of `image_path`.
 
     The reference is made ready as the panel makes it (blender_addon.reference.read_reference): a crop, a mask, or
@@ -116,6 +116,8 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
     'encoder' estimate or the 'mean' preset. imitator_refine: (spec, imitator run, source, reference, start unit, steps,
     samples, seed, lighting) -> a refinement with .unit, .loss, .start_loss, .steps; needed by imitator:K
     (pipeline.match gives it). lighting: the default lips scene's, for a lipstick --source (None: its default).
+    neutral_light: a photo's light is read from its skin and taken out before the estimate (reference.lips_reference;
+    'light' in the result); False reads the photo's colours as they are. A render of a known source is read as it is.
     """
     kind, amount = parse_refine(refine)
     quality = str(quality).upper()
@@ -139,7 +141,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
 
             mask_path = str(mask_path_for(Path(image_path)))
     settings = {"image_path": image_path, "crop": crop, "mask_path": mask_path,
-                "find_lips": find_lips and source is None}
+                "find_lips": find_lips and source is None, "neutral_light": neutral_light and source is None}
     prepared = read_reference(spec.renderer, settings)
     started = time.perf_counter()
     values = session.predict(prepared.image)[0]
@@ -147,6 +149,9 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
               "encoder_ms": 1000 * (time.perf_counter() - started)}
     if prepared.lips is not None:
         result["lips"] = {"how": prepared.lips.how, "box": list(prepared.lips.box), "faces": prepared.lips.faces}
+    if prepared.light is not None:
+        result["light"] = {"gains": [round(float(g), 4) for g in prepared.light.gains],
+                           "read_from": prepared.light.read_from}
     encoder = {k: values[k] for k in spec.modelled}  # Better and Best's candidate starts: it and Fast's
     if source is None and prepared.region is not None:  # a photo: its colour, through the colour imitator
         fast, note = fit_photo_fast(spec, prepared.region, encoder)
@@ -251,6 +256,9 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
                                                      "as the default scene frames its lips) or of the hair")
     parser.add_argument("--whole-image", action="store_true",
                         help="lipstick: take the image (or crop) as it is instead of finding the lips in it")
+    parser.add_argument("--keep-light", action="store_true",
+                        help="lipstick: read the photo's colours as they are, its light included (default: the light "
+                             "is read from the skin beside the lips and taken out)")
     args = parser.parse_args(argv)
     if args.material is None:
         for option in ("blend", "save"):
@@ -270,7 +278,7 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
     mask = os.path.abspath(args.mask) if args.mask else None
     result = match(args.model, args.image, args.source, args.refine, args.imitator, args.res, args.samples, args.seed,
                    args.objective, args.start, imitator_refine, args.lighting, args.quality, parse_crop(args.crop),
-                   mask, not args.whole_image)
+                   mask, not args.whole_image, not args.keep_light)
     for note in [result["note"], *result["notes"]]:
         if note:
             print(f"vto match: {note}", file=sys.stderr)
@@ -309,7 +317,8 @@ def match_material_cli(args, out: Path | None) -> int:
     blend = bpy.data.filepath
     settings = {"image_path": os.path.abspath(args.image), "model_path": os.path.abspath(args.model) if args.model
                 else "", "crop": crop, "mask_path": os.path.abspath(args.mask) if args.mask else "",
-                "quality": args.quality.upper(), "find_lips": not args.whole_image}
+                "quality": args.quality.upper(), "find_lips": not args.whole_image,
+                "neutral_light": not args.keep_light}
     result = match_into_material(args.material, settings)
     for warning in result["warnings"]:
         print(f"vto match: warning: {warning}", file=sys.stderr)

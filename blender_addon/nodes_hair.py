@@ -7,7 +7,7 @@ import bpy
 from vto_core.hair import BLEND_OFFSET, BLEND_RAMP, BLEND_SCALE, GLOBAL_CONTRAST_GAIN, LOCAL_CONTRAST_GAIN
 from vto_core.specs import get_spec
 
-from .compat import COMPOSITOR_TREE, mix_color_sockets, set_gaussian_blur
+from .compat import COMPOSITOR_TREE, mix_color_sockets, set_blur_size, set_gaussian_blur
 from .node_utils import Builder, add_spec_inputs, get_or_create_group
 
 SWATCH_GROUP = "VTO Hair Swatch"
@@ -105,7 +105,7 @@ def color_group() -> bpy.types.NodeTree:
 
 def set_blur_radius(group: bpy.types.NodeTree, radius: int) -> None:
     """Set the local-contrast blur's radius in pixels (vto_core.hair.blur_radius of the image width)."""
-    group.nodes[BLUR_NODE].inputs["Size"].default_value = (radius, radius)
+    set_blur_size(group.nodes[BLUR_NODE], radius)
 
 
 def set_lut(group: bpy.types.NodeTree, gray_lut, channel_luts) -> None:

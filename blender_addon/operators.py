@@ -11,6 +11,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, StringPro
 from vto_core.errors import VtoError
 
 from . import apply
+from .photo_fit import OFFERED
 from .preferences import preference_model
 from .properties import QUALITY_ITEMS, remember, settings_dict
 
@@ -109,6 +110,8 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
         else:
             stored = getattr(context.scene, "vto_hair_match", None)
         settings = self.settings(stored)
+        if not self.properties.is_property_set("quality") and settings["quality"] not in OFFERED[renderer]:
+            settings["quality"] = "FAST"  # what the panel shows: it offers no other for this renderer
         settings["preference_model"] = preference_model(context, renderer)
         if renderer == "lipstick":
             return apply.MatchJob(renderer, settings, material_name=material.name), stored

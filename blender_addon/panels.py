@@ -11,7 +11,7 @@ import bpy
 from vto_core.specs import get_spec
 
 from . import apply, thumbnail, warmup
-from .photo_fit import FIT_QUALITY, FIT_SECONDS, QUALITIES
+from .photo_fit import FIT_QUALITY, FIT_SECONDS, NOT_OFFERED, OFFERED
 from .operators import VTO_OT_add_hair_compositor, VTO_OT_add_lipstick_material, VTO_OT_match_from_photo
 from .preferences import preference_model
 
@@ -48,18 +48,21 @@ def draw_reference(column, props, preview_name: str, renderer: str) -> None:
 
 
 def draw_quality(column, props, renderer: str) -> None:
-    """Fast / Better / Best, and what the choice costs."""
-    split = column.split(factor=0.4)  # the label column of property split, which prop_enum does not follow
-    label = split.row()
-    label.alignment = "RIGHT"
-    label.label(text="Quality")
-    row = split.row(align=True)
-    row.use_property_split = False
-    for value in QUALITIES:
-        row.prop_enum(props, "quality", value)
-    column.label(text=quality_cost(renderer, props.quality), icon="TIME")
-    if renderer == "lipstick" and props.quality != "FAST" and not (props.find_lips or props.mask_path):
-        column.label(text="Better, Best: find the lips or give a mask", icon="ERROR")
+    """Fast / Better / Best where they pay (OFFERED; else why not), and what the choice costs."""
+    offered = OFFERED[renderer]
+    quality = props.quality if props.quality in offered else "FAST"
+    if len(offered) > 1:
+        split = column.split(factor=0.4)  # the label column of property split, which prop_enum does not follow
+        label = split.row()
+        label.alignment = "RIGHT"
+        label.label(text="Quality")
+        row = split.row(align=True)
+        row.use_property_split = False
+        for value in offered:
+            row.prop_enum(props, "quality", value)
+    column.label(text=quality_cost(renderer, quality), icon="TIME")
+    if renderer in NOT_OFFERED:
+        column.label(text=NOT_OFFERED[renderer], icon="INFO")
 
 
 def quality_cost(renderer: str, quality: str) -> str:

@@ -45,6 +45,16 @@ FIT_RES = 64
 # keeps that reading where the photo does not ask for another. Hair statistics depend on the swatch alone (the stage
 # matches the hair's histogram to it), not on a scene: a weaker pull lets the fit go further.
 PRIOR_WEIGHT = {"lipstick": 8.0, "hair": 2.0}
+# Whether Fast fits the colour imitator after the encoder (benchmarks/results/light.md). Lips: the fit moves the
+# estimate until the default scene shows the photo's colour, light and skin included, and loses to the encoder alone
+# on renders with the source hidden (-5.3 dB): Fast is the encoder's estimate of the photo with its light taken out.
+# Hair: the stage matches the hair to the swatch whatever the scene, and the fit gains (+8.7 dB).
+FAST_FITS = {"lipstick": False, "hair": True}
+# The qualities the panel offers: those that beat the one below them on renders with the source hidden (light.md).
+# Lips: Better and Best fit the photo's colour on default faces, whose shape and light are not the photo's, and come
+# out 3.5-4 dB below Fast there; they stay on `vto match --quality` for the photo's colour on the default scene.
+OFFERED = {"lipstick": ("FAST",), "hair": QUALITIES}
+NOT_OFFERED = {"lipstick": "Better, Best: below Fast for lips (fitted on default faces)"}
 
 
 def parameter_difference(unit: np.ndarray, start: np.ndarray, wraps: np.ndarray) -> np.ndarray:
@@ -183,7 +193,8 @@ def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
         return np.mean([region_statistics(*render(spec.full_values(photo_values(spec, values)))) for render in sources],
                        axis=0)
 
-    candidates, evaluations = [start, *others], renders // count
+    candidates = [start, *(other for other in others if other != start)]
+    evaluations = renders // count
     if len(candidates) > 1:
         distances = []
         for candidate in candidates:
@@ -214,9 +225,18 @@ def colour_imitator_path(renderer: str) -> Path:
 
 def fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
                    imitator_path: Path | None = None) -> tuple[dict[str, float], str]:
-    """Fast's fit: the modelled values (raw) near `start` whose default-scene statistics, as the colour imitator
-    (vto_core.colour_imitator) predicts them, are the photo region's; milliseconds, no render. Returns them and a
-    note: where no imitator for this spec exists the encoder's estimate stands, and the note says so."""
+    """Fast: the encoder's estimate `start` (modelled raw values) as it is where FAST_FITS says the colour fit does
+    not pay, else fit_colour's. Returns the values and a note for the user ("" when none)."""
+    if not FAST_FITS[spec.renderer]:
+        return dict(start), ""
+    return fit_colour(spec, region, start, imitator_path)
+
+
+def fit_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
+               imitator_path: Path | None = None) -> tuple[dict[str, float], str]:
+    """The colour imitator's fit: the modelled values (raw) near `start` whose default-scene statistics, as the colour
+    imitator (vto_core.colour_imitator) predicts them, are the photo region's; milliseconds, no render. Returns them
+    and a note: where no imitator for this spec exists the encoder's estimate stands, and the note says so."""
     from vto_core.appearance import region_statistics, skin_light
     from vto_core.colour_imitator import cached_imitator
 

@@ -170,7 +170,9 @@ class Reference:
     image: (H, W, 3) what the encoder reads (lips framed as the default scene frames them; a square of hair).
     region: (rgb (h, w, 3), mask (h, w)) the pixels of the lips or hair, for a fit of their colour statistics
     (blender_addon.photo_fit); None when unknown. lips: what the lips locator found, in the coordinates of `whole`
-    (or None). box: (x, y, w, h) of `image` inside `whole`. notes: what the user should be told.
+    (or None). box: (x, y, w, h) of `image` inside `whole`. notes: what the user should be told. light: the photo's
+    light (vto_core.photo_light.PhotoLight) that was taken out of `image` and `region`, or None where the photo was
+    read as it is (`whole` is always as given).
     """
 
     image: np.ndarray
@@ -179,6 +181,7 @@ class Reference:
     box: tuple[int, int, int, int]
     lips: object = None
     notes: list[str] = field(default_factory=list)
+    light: object = None
 
 
 def locate_lips(image: np.ndarray):
@@ -209,10 +212,13 @@ def in_whole(lips, box: tuple[int, int, int, int], shape: tuple[int, int]):
                                inner=np.asarray(lips.inner) + offset)
 
 
-def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None, find_lips: bool = True) -> Reference:
+def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None, find_lips: bool = True,
+                   neutral_light: bool = True) -> Reference:
     """The lips of a photo, framed for the encoder: a crop, a mask (framed by lips_frame), or, with neither, the lips
     the locator finds (framed likewise). find_lips=False takes the whole image (or the crop) as it is. A crop in which
-    the locator finds no lips is taken as the artist drew it: the lips where the default scene frames them."""
+    the locator finds no lips is taken as the artist drew it: the lips where the default scene frames them.
+    neutral_light: where the lips are known, the photo's light is read from the skin beside them and taken out
+    (vto_core.photo_light), so the estimate is of the product, not of the light it was photographed in."""
     height, width = whole.shape[:2]
     box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
     notes, lips = [], None
@@ -229,19 +235,46 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
         lips = in_whole(lips, box, (height, width))
         mask = lips.mask
         notes += [lips.note] if lips.note else []
+    light, read = None, whole
+    if neutral_light and mask is not None:
+        light, read = read_light(whole, mask)
+        notes.append(light.describe())
     if crop is None and mask is not None:
         box = lips_frame(mask)
-    region = None if mask is None else (_cut(whole, box), _cut(mask, box))
-    return Reference(_cut(whole, box), region, whole, box, lips, notes)
+    region = None if mask is None else (_cut(read, box), _cut(mask, box))
+    return Reference(_cut(read, box), region, whole, box, lips, notes, light)
 
 
-def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None) -> Reference:
+def read_light(whole: np.ndarray, lips: np.ndarray):
+    """(the light of a photo (H, W, 3) read from the skin beside its lips (H, W), vto_core.photo_light.PhotoLight;
+    the photo with it taken out)."""
+    from vto_core.photo_light import light_of, neutral_photo
+
+    light = light_of(whole, lips)
+    return light, neutral_photo(whole, light)
+
+
+def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
+                   neutral_light: bool = True) -> Reference:
     """Hair as the hair encoder reads it: the crop (all hair), or with a hair mask the largest square of it
-    (vto_core.hair.hair_square); the region is the masked hair of the crop (or the whole crop)."""
+    (vto_core.hair.hair_square); the region is the masked hair of the crop (or the whole crop).
+    neutral_light: where the whole photo shows a face, its light is read from the skin beside the lips and taken
+    out (a hair colour is the hair's under neutral light); a photo without one (a patch of hair) is read as it is."""
     from vto_core.hair import hair_square
 
     height, width = whole.shape[:2]
     box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
+    notes, light, original = [], None, whole
+    if neutral_light:
+        try:
+            lips = locate_lips(whole)
+        except VtoError:
+            lips = None
+        if lips is not None and lips.how == "face":
+            light, whole = read_light(whole, lips.mask)
+            notes.append(light.describe())
+        else:
+            notes.append("no face in the photo to read its light from: the hair is read as it is")
     rgb = _cut(whole, box)
     mask = np.ones(rgb.shape[:2], np.float32) if mask is None else _cut(mask, box)
     if not mask.any():
@@ -252,7 +285,7 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None)
                        "paint more of the hair, or crop a patch of it")
     x, y, side = square
     inner = (box[0] + x, box[1] + y, side, side)
-    return Reference(_cut(whole, inner), (rgb, mask), whole, inner)
+    return Reference(_cut(whole, inner), (rgb, mask), original, inner, notes=notes, light=light)
 
 
 def read_reference(renderer: str, settings: dict) -> Reference:
@@ -260,5 +293,6 @@ def read_reference(renderer: str, settings: dict) -> Reference:
     whole = read_image_setting(settings)
     mask = read_mask(settings["mask_path"], whole.shape[:2]) if settings.get("mask_path") else None
     if renderer == "hair":
-        return hair_reference(whole, settings.get("crop"), mask)
-    return lips_reference(whole, settings.get("crop"), mask, settings.get("find_lips", True))
+        return hair_reference(whole, settings.get("crop"), mask, settings.get("neutral_light", True))
+    return lips_reference(whole, settings.get("crop"), mask, settings.get("find_lips", True),
+                          settings.get("neutral_light", True))

@@ -177,9 +177,10 @@ def source_tones(source_seed: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def apply_source(scene: bpy.types.Scene, source_seed: int,
-                 tones: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+                 tones: tuple[np.ndarray, np.ndarray] | None = None, light_seed: int | None = None) -> None:
     """Set shape, tones, lighting and camera of the lips scene from `source_seed`, in place; `tones` (the skin's and
-    the bare lips' sRGB (3,) each) replace the seed's own tones where given."""
+    the bare lips' sRGB (3,) each) replace the seed's own tones where given, and the light source `light_seed` draws
+    replaces the seed's own where given (the same lips and camera under another of the scene's lights)."""
     rng = _source_rng(source_seed)
     shape = lip_shape(rng)
     lips = scene.objects[LIPS_OBJECT]
@@ -199,16 +200,26 @@ def apply_source(scene: bpy.types.Scene, source_seed: int,
     lips_material = bpy.data.materials[LIPS_MATERIAL].node_tree.nodes
     lips_material["Bare Lips"].inputs["Base Color"].default_value = (*srgb_to_linear(lips_tone), 1.0)
 
-    if scene.get("vto_lighting", DEFAULT_LIGHTING) == "portrait":
-        randomise_portrait(scene, rng)
-    else:
-        randomise_hdri(scene, rng, (0.6, 1.6))
+    randomise_light(scene, rng)
+    if light_seed is not None:  # drawn after the seed's own, so the camera's draws below stay the seed's
+        other = _source_rng(light_seed)
+        lip_shape(other), _draw_tones(other)
+        randomise_light(scene, other)
 
     camera = scene.camera
     camera.location = (rng.normal(0, 0.08), rng.normal(-0.05, 0.08), rng.uniform(3.6, 4.4))
     camera.rotation_euler = (rng.normal(0, 0.02), rng.normal(0, 0.02), rng.normal(0, 0.04))
     scene["vto_source_seed"] = int(source_seed)
     scene["vto_source_tones"] = tones_key(tones)
+    scene["vto_light_seed"] = -1 if light_seed is None else int(light_seed)
+
+
+def randomise_light(scene: bpy.types.Scene, rng: np.random.Generator) -> None:
+    """Draw the scene's light from `rng` the scene's way (portrait or wide)."""
+    if scene.get("vto_lighting", DEFAULT_LIGHTING) == "portrait":
+        randomise_portrait(scene, rng)
+    else:
+        randomise_hdri(scene, rng, (0.6, 1.6))
 
 
 def tones_key(tones: tuple[np.ndarray, np.ndarray] | None) -> list[float]:
@@ -216,10 +227,12 @@ def tones_key(tones: tuple[np.ndarray, np.ndarray] | None) -> list[float]:
     return [] if tones is None else [round(float(v), 6) for t in tones for v in t]
 
 
-def applied(scene: bpy.types.Scene, source_seed: int, tones: tuple[np.ndarray, np.ndarray] | None = None) -> bool:
-    """Whether `scene` shows `source_seed` with `tones` already (apply_source would change nothing)."""
+def applied(scene: bpy.types.Scene, source_seed: int, tones: tuple[np.ndarray, np.ndarray] | None = None,
+            light_seed: int | None = None) -> bool:
+    """Whether `scene` shows `source_seed` with `tones` and `light_seed` already (apply_source would change nothing)."""
     return (scene.get("vto_source_seed") == int(source_seed)
-            and list(scene.get("vto_source_tones", [])) == tones_key(tones))
+            and list(scene.get("vto_source_tones", [])) == tones_key(tones)
+            and scene.get("vto_light_seed", -1) == (-1 if light_seed is None else int(light_seed)))
 
 
 def use_lighting(scene: bpy.types.Scene, lighting: str | None = None) -> None:

@@ -207,6 +207,7 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
     from blender_addon.match import SourceRenderer
     from blender_addon.photo_fit import fit_photo_fast, iter_fit_photo
     from blender_addon.refine import SIGMA_FROM_MEAN, drain, refine_by_render
+    from vto_core.photo_light import light_of, neutral_photo
 
     from .match import imitator_inputs, imitator_refiner
 
@@ -276,9 +277,13 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
                                             settings.lighting)
                 found = refiner.refine(x, target, encoder_unit, amount)
                 spent_before = ms["encoder"]
-            elif kind == "photo":
+            elif kind == "photo":  # as a photo goes through `vto match`: lips with the light read and taken out
                 region = photo_region(spec.renderer, on_a, reference, source_a, settings)
                 encoder = {k: estimates["encoder"][k] for k in spec.modelled}
+                if spec.renderer == "lipstick":
+                    read = neutral_photo(reference, light_of(*region))
+                    region = (read, region[1])
+                    encoder = {k: v for k, v in session.predict(read)[0].items() if k in spec.modelled}
                 fast = fit_photo_fast(spec, region, encoder)[0]
                 estimates[name] = spec.full_values(fast if amount == "FAST" else drain(iter_fit_photo(
                     spec, region, encoder, amount, settings.res, settings.samples, others=(fast,))))

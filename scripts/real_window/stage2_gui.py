@@ -3,18 +3,17 @@ X11 clicks (xdotool), undone with a real ctrl+z; screenshots (ImageMagick: Blend
 OUT/result.json (written as it goes, so a run that stops still tells how far it got). Every step runs on a timer, so
 the window draws and handles the events in between.
 
-Lips: a whole portrait (the add-on finds the lips), Match (Fast) clicked, undone, clicked twice more; then Better
-chosen in the Quality row (a real click on its button) and Match clicked once the material preview is idle: the modal
-fit runs. Hair: a patch of the portrait's hair, Match (Fast), undone. Last, what an artist does quickly: Better, then
-Match while Cycles renders the material's preview again (the fit must not hang Blender). A main loop stalled for
-STALL_S seconds dumps every thread's Python stack into the log and exits."""
+Lips: a whole portrait (the add-on finds the lips and reads the photo's light from her skin), Match (Fast) clicked,
+undone, clicked twice more; the panel offers lips no other quality and says why. Hair: a patch of the portrait's
+hair, Match (Fast), undone; then Better chosen in the sidebar's Quality row (a real click on its button) and Match
+clicked: the modal fit runs. A main loop stalled for STALL_S seconds dumps every thread's Python stack into the log
+and exits."""
 import faulthandler
 import importlib
 import json
 import os
 import subprocess
 import sys
-import threading
 import time
 import traceback
 
@@ -162,21 +161,6 @@ class MatchFailed(RuntimeError):
     """The click started Match, and it ended without writing (it reported an error)."""
 
 
-def preview_busy():
-    """Whether Cycles renders a preview (the material's icons) in a job thread: a thread other than this one whose
-    Python stack is in Cycles' engine. (bpy.app.is_job_running("RENDER_PREVIEW") stayed False here while it did.)"""
-    main = threading.get_ident()
-    return bpy.app.is_job_running("RENDER_PREVIEW") or any(
-        ident != main and any("cycles" in f.f_code.co_filename for f in frames(frame))
-        for ident, frame in sys._current_frames().items())
-
-
-def frames(frame):
-    while frame is not None:
-        yield frame
-        frame = frame.f_back
-
-
 def click_match(props, inputs, name, wait=5.0, running_shot=None):
     """A real click on the hovered Match; waits (up to `wait` s) for the values; returns (values, reported ms).
     `props` gives the settings group (undo replaces it). running_shot: a screenshot of the whole window of that name
@@ -203,29 +187,6 @@ def click_match(props, inputs, name, wait=5.0, running_shot=None):
     return inputs(), ms
 
 
-def wait_preview(busy, limit, quiet=0.0):
-    """Wait (up to `limit` s) until a preview renders (busy=True), or until none has for `quiet` s (busy=False);
-    returns the seconds waited."""
-    start = since = time.time()
-    while time.time() - start < limit:
-        if preview_busy() != busy:
-            since = time.time()
-        elif time.time() - since >= quiet:
-            break
-        yield 0.05
-    return round(time.time() - start, 2)
-
-
-def operator_error(area, material_name):
-    """Why Match failed: the operator run again from Python (EXEC, the panel's settings), its error line."""
-    try:
-        with bpy.context.temp_override(window=window(), area=area):
-            bpy.ops.vto.match_from_photo("EXEC_DEFAULT", target="MATERIAL", material=material_name)
-    except RuntimeError as exc:
-        return str(exc).strip()
-    return "(run again from Python it wrote values)"
-
-
 def retrying(action):
     """Run `action` once Blender allows writing ID data (not while a material preview renders)."""
     refusal = ""
@@ -249,9 +210,9 @@ def undo():
     yield 1.0
 
 
-def quality_label(props):
+def quality_label(props, renderer="lipstick"):
     """The cost line the panel shows under the Quality row, from the installed extension's panels module."""
-    return extension("panels").quality_cost("lipstick", props.quality)
+    return extension("panels").quality_cost(renderer, props.quality)
 
 
 def extension(module):
@@ -276,25 +237,30 @@ def quality_buttons(region, shot):
     return {"FAST": ((x0 + x1) // 2, (y0 + y1) // 2), "BETTER": (x0 + width * 3 // 2, (y0 + y1) // 2)}
 
 
-def choose(buttons, quality, settle=0.4):
-    """Pick `quality` in the Quality row, as an artist does: a real click on its button (`settle` s after moving
-    there). Falls back to setting the property when the click did not take (noted). Returns 'click' or 'property'."""
+def choose(buttons, quality, props, settle=0.4):
+    """Pick `quality` in the Quality row of the settings `props()`, as an artist does: a real click on its button
+    (`settle` s after moving there). Falls back to setting the property when the click did not take (noted).
+    Returns 'click' or 'property'."""
     xdo("mousemove", *buttons[quality])
     yield settle
     xdo("click", 1)
     for _ in range(40):
         yield 0.05
-        if lips_props().quality == quality:
+        if props().quality == quality:
             log(quality, "chosen by a click")
             return "click"
     RESULT["notes"].append(f"the click on {quality} did not choose it")  # (then the property, so the rest runs)
-    yield from retrying(lambda: setattr(lips_props(), "quality", quality))
+    yield from retrying(lambda: setattr(props(), "quality", quality))
     log(quality, "chosen by the property")
     return "property"
 
 
 def lips_props():
     return bpy.data.objects["Cube"].active_material.vto_match  # undo reloads the datablocks: look it up each time
+
+
+def hair_props():
+    return bpy.context.scene.vto_hair_match
 
 
 def taller(area, pixels):
@@ -361,28 +327,9 @@ def script():
     except Exception as exc:  # noqa: BLE001  (recorded, not fatal: the screenshots show the outline)
         RESULT["errors"].append(f"lips box: {type(exc).__name__}: {exc}")
 
-    # Better: a real click on its button in the Quality row, then Match once the material preview is idle.
-    yield 0.5
-    grab("lips_fast_chosen", region_of(props_area))
-    buttons = quality_buttons(region_of(props_area), "lips_fast_chosen")
-    lips["better_chosen_by"] = yield from choose(buttons, "BETTER")
-    lips["better_label"] = quality_label(lips_props())
-    lips["preview_wait_s"] = yield from wait_preview(False, 60.0, quiet=3.0)  # once the icons are rendered
-    grab("lips_better_chosen", region_of(props_area))  # the cost line of Better, before Match
-    xdo("mousemove", x, y)
-    yield 0.5
-    try:
-        better, better_ms = yield from click_match(lips_props, lips_inputs, "lips Better click", wait=120.0,
-                                                   running_shot="lips_better_running")
-        lips.update({"better": better, "better_ms": [better_ms], "better_estimate": lips_props().last_estimate})
-    except MatchFailed as exc:
-        yield from wait_preview(False, 60.0, quiet=1.0)
-        lips["better_error"] = f"{exc}: {operator_error(props_area, lips_props().id_data.name)}"
-        RESULT["errors"].append(lips["better_error"])
-        log(lips["better_error"])
-    lips["quality"] = lips_props().quality
-    yield 1.5
-    grab("lips_better", region_of(props_area))
+    # Lips offer Fast only (the panel draws no Quality row for them, and says why: photo_fit.OFFERED).
+    lips["offered"] = list(extension("photo_fit").OFFERED["lipstick"])
+    lips["not_offered"] = extension("photo_fit").NOT_OFFERED.get("lipstick", "")
 
     # The hair stage: the 3D viewport becomes the Compositor, its sidebar on the VTO tab.
     view = area_of("VIEW_3D")
@@ -407,8 +354,7 @@ def script():
     hx, hy = find_button(sidebar, "hair_before")
     xdo("mousemove", hx, hy)
     yield 0.5
-    hair_first, hair_ms = yield from click_match(lambda: bpy.context.scene.vto_hair_match, hair_inputs,
-                                                 "hair click 1")
+    hair_first, hair_ms = yield from click_match(hair_props, hair_inputs, "hair click 1")
     yield 1.0
     grab("hair_after", sidebar)
     estimate = bpy.context.scene.vto_hair_match.last_estimate
@@ -416,24 +362,26 @@ def script():
     RESULT["hair"] = {"defaults": hair_defaults, "first": hair_first, "undone": hair_inputs(), "ms": [hair_ms],
                       "estimate": estimate}
 
-    # Quickly, as an artist does: Better, then Match at once. Choosing Better changes the material (the settings live
-    # on it), so Cycles renders its preview icons again; Match is clicked while it does.
-    race = lips["race"] = {}
-    yield from choose(buttons, "FAST")
-    race["preview_quiet_s"] = yield from wait_preview(False, 60.0, quiet=3.0)
-    yield from choose(buttons, "BETTER", settle=0.2)
-    xdo("mousemove", x, y)
-    yield 0.1
-    race["preview_started_s"] = yield from wait_preview(True, 5.0)
-    race["preview_running_at_click"] = preview_busy()
-    log("quick Better click; the preview renders:", race["preview_running_at_click"])
+    # Better for hair: a real click on its button in the sidebar's Quality row, then Match; the modal fit runs.
+    hair = RESULT["hair"]
+    yield 0.5
+    grab("hair_fast_chosen", sidebar)
+    buttons = quality_buttons(sidebar, "hair_fast_chosen")
+    hair["better_chosen_by"] = yield from choose(buttons, "BETTER", hair_props)
+    hair["better_label"] = quality_label(hair_props(), "hair")
+    xdo("mousemove", hx, hy)
+    yield 0.5
     try:
-        values, ms = yield from click_match(lips_props, lips_inputs, "lips quick Better click", wait=120.0)
-        race.update({"values": values, "ms": ms})
-        lips["better_ms"] = lips.get("better_ms", []) + [ms]
+        better, better_ms = yield from click_match(hair_props, hair_inputs, "hair Better click", wait=120.0,
+                                                   running_shot="hair_better_running")
+        hair.update({"better": better, "better_ms": [better_ms], "better_estimate": hair_props().last_estimate})
     except MatchFailed as exc:
-        race["error"] = str(exc)
-        RESULT["errors"].append(f"quick Better: {exc}")
+        hair["better_error"] = str(exc)
+        RESULT["errors"].append(hair["better_error"])
+        log(hair["better_error"])
+    hair["quality"] = hair_props().quality
+    yield 1.5
+    grab("hair_better", sidebar)
     RESULT["completed"] = True
 
 

@@ -260,20 +260,26 @@ def test_a_whole_portrait_is_read_at_its_lips(models, portrait, tmp_path, capsys
     assert not np.allclose([written[k] for k in SPEC.modelled], [whole_image[k] for k in SPEC.modelled], atol=1e-3)
 
 
-def test_crop_and_mask_work_without_a_material(models, portrait, tmp_path):
+def test_crop_and_mask_work_without_a_material_and_the_photos_light_is_taken_out(models, portrait, tmp_path):
+    from vto_core.photo_light import light_of, neutral_photo
+
     crop = tmp_path / "crop.json"
     assert cli.run(["match", "--model", models[0], "--image", str(portrait), "--crop", "196,117,56,56",
-                    "--out-params", str(crop)]) == 0
+                    "--keep-light", "--out-params", str(crop)]) == 0
     whole = read_image(portrait)[0]
     mask = np.zeros(whole.shape[:2], np.float32)
     mask[137:157, 201:249] = 1.0  # the hand-drawn lips box
     write_image(tmp_path / "mask.png", mask)
-    masked = tmp_path / "mask.json"
-    assert cli.run(["match", "--model", models[0], "--image", str(portrait), "--mask", str(tmp_path / "mask.png"),
-                    "--out-params", str(masked)]) == 0
+    masked, neutral = tmp_path / "mask.json", tmp_path / "neutral.json"
+    for out, keep in ((masked, ["--keep-light"]), (neutral, [])):
+        assert cli.run(["match", "--model", models[0], "--image", str(portrait), "--mask", str(tmp_path / "mask.png"),
+                        *keep, "--out-params", str(out)]) == 0
     session = EncoderSession(models[0])
     assert parse_params(str(crop), "lipstick") == pytest.approx(session.predict(whole[117:173, 196:252])[0])
     assert parse_params(str(masked), "lipstick") == pytest.approx(session.predict(whole[116:178, 194:256])[0])
+    read = neutral_photo(whole, light_of(whole, mask))  # the light read from the skin beside the lips
+    assert parse_params(str(neutral), "lipstick") == pytest.approx(session.predict(read[116:178, 194:256])[0])
+    assert parse_params(str(neutral), "lipstick") != pytest.approx(parse_params(str(masked), "lipstick"))
 
 
 @pytest.mark.parametrize("picture", ["noise", "blank", "dark"])

@@ -17,6 +17,7 @@ bpy = pytest.importorskip("bpy")
 
 import blender_addon  # noqa: E402
 from blender_addon import apply  # noqa: E402
+from blender_addon.photo_fit import NOT_OFFERED  # noqa: E402
 from blender_addon.reference import load_reference  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import write_image  # noqa: E402
@@ -123,13 +124,15 @@ def expected_estimate(image: np.ndarray, model: str = MODEL) -> dict[str, float]
     return {name: values[name] for name in session.spec.modelled}
 
 
-def fast_estimate(image: np.ndarray, lips: np.ndarray, model: str = MODEL) -> dict[str, float]:
-    """Fast on a reference whose lips are known: the encoder's estimate fitted through the colour imitator."""
-    from blender_addon.photo_fit import fit_photo_fast
+def fast_estimate(image: np.ndarray, lips: np.ndarray, box: tuple[int, int, int, int], model: str = MODEL
+                  ) -> dict[str, float]:
+    """Fast on a reference (H, W, 3) whose lips (H, W) are known: the encoder's estimate of the part `box` (x, y, w,
+    h) of the photo with its light, read from the skin beside the lips, taken out."""
+    from vto_core.photo_light import light_of, neutral_photo
 
-    session = EncoderSession(model)
-    image = np.ascontiguousarray(image)
-    return fit_photo_fast(session.spec, (image, lips), expected_estimate(image, model))[0]
+    x, y, w, h = box
+    return expected_estimate(np.ascontiguousarray(neutral_photo(image, light_of(image, lips))[y:y + h, x:x + w]),
+                             model)
 
 
 def run_match(**kwargs):
@@ -378,7 +381,7 @@ def test_crop_in_pixels_or_fractions_and_an_image_datablock(material, reference)
     assert run_match(material=material, image_path=reference,
                      mask_path=str(Path(reference).with_name("lips_mask.png")))[0] == {"FINISHED"}
     after = inputs_of(material)
-    framed = fast_estimate(image[4:20, 0:16], mask[4:20, 0:16])  # 12 px of lips = 0.78 of a 16 px square
+    framed = fast_estimate(image, mask, (0, 4, 16, 16))  # 12 px of lips = 0.78 of a 16 px square
     assert {n: after[n] for n in framed} == pytest.approx(framed, abs=1e-4) != expected
     # an image already in the .blend (no file behind it): byte pixels are display values
     pixels = gradient_image(16, 16)
@@ -458,9 +461,12 @@ def test_a_portrait_is_matched_at_its_lips_and_better_leaves_nothing_behind(mate
     framed = read_reference("lipstick", {"image_path": portrait})
     assert run_match(material=material, image_path=portrait, find_lips=True) == ({"FINISHED"}, None)
     fast = inputs_of(material)
-    expected = fast_estimate(*framed.region)
+    expected = fast_estimate(framed.whole, framed.lips.mask, framed.box)
     assert {n: fast[n] for n in SPEC.modelled} == pytest.approx(expected, abs=1e-4)
-    assert expected != pytest.approx(expected_estimate(framed.image), abs=1.0)  # the colour fit moved the encoder's
+    assert framed.light.read_from == "skin" and not np.allclose(framed.light.gains, 1.0, atol=0.01)
+    assert expected != pytest.approx(expected_estimate(framed.whole[framed.box[1]:framed.box[1] + framed.box[3],
+                                                                    framed.box[0]:framed.box[0] + framed.box[2]]),
+                                     abs=0.5)  # her light, taken out, moved the estimate
     reference = read_reference("lipstick", {"image_path": portrait})
     canvas = thumbnail.compose(reference.whole, None, None, reference.lips)  # what the panel's thumbnail shows
     rows, cols = np.nonzero(np.all(np.isclose(canvas[..., :3], thumbnail.LIPS_COLOUR), axis=-1))
@@ -608,7 +614,8 @@ def test_the_panels_draw_every_control_and_the_last_estimate(material, reference
     shown = {entry[1] for entry in log if entry[0] == "prop"}
     assert {"image_path", "use_crop", "mask_path", "model_path"} <= shown
     assert {"find_lips"} <= shown
-    assert ("enum", "FAST", True) in log and ("enum", "BETTER", True) in log and ("enum", "BEST", True) in log
+    assert not any(entry[0] == "enum" for entry in log)  # lips: only Fast pays (photo_fit.OFFERED), and it says why
+    assert ("label", NOT_OFFERED["lipstick"]) in log
     assert any(entry[1] == "Fast: no render, milliseconds" for entry in log if entry[0] == "label")
     assert ("operator", "vto.match_from_photo") in log
     assert run_match(material=material, image_path=reference)[0] == {"FINISHED"}

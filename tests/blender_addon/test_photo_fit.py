@@ -118,9 +118,38 @@ def test_the_fit_starts_from_the_candidate_whose_render_already_shows_the_photo(
     renders = []
     fitted = drain(iter_fit_photo(spec, region, far, "BETTER", RES, 8, others=(truth,)), renders.append)
     assert renders[:2] == [count, 2 * count] and renders[-1] == budget and renders == sorted(renders)
-    assert fitted == drain(iter_fit_photo(spec, region, truth, "BETTER", RES, 8, others=(truth,)))
     assert fitted == drain(iter_fit_photo(spec, region, truth, "BETTER", RES, 8, others=(far,)))
+    alone = []  # a candidate equal to the start is the start: no render spent on choosing
+    drain(iter_fit_photo(spec, region, truth, "BETTER", RES, 8, others=(truth,)), alone.append)
+    assert alone[0] == count and alone[-1] == budget
     from_far = drain(iter_fit_photo(spec, region, far, "BETTER", RES, 8, others=(far,)))
     assert fitted != from_far
     colour = mean_colour(*region)
     assert delta_e(colour, apparent_colour("hair", photo_values(spec, fitted), [900001], RES, 8)["mean"]) < 2
+
+
+def test_fast_keeps_the_lipstick_when_the_render_is_re_lit_warm(tmp_path):
+    """One look rendered on a default source, and the same render as a camera balanced for daylight records it under
+    3,200 K light: Fast (the shipped encoder on the photo with its light taken out) moves far less than the encoder
+    with the light left in, and on the render as it is Fast is the encoder (the source's light is the default
+    scene's own)."""
+    from pathlib import Path
+
+    from blender_addon.match import match
+    from vto_core.imageio import write_image
+    from vto_core.photo_light import kelvin_gains, relit
+
+    model = str(Path(__file__).resolve().parents[2] / "blender_addon" / "models" / "lipstick_encoder.onnx")
+    look = {"opacity": 0.9, "red": 190.0, "green": 60.0, "blue": 90.0, "gloss": 0.3, "reflection": 0.2}
+    render = render_lipstick(look, 920000, 64, 16, 0)
+    write_image(tmp_path / "mask.png", np.repeat(lips_mask(920000, 64)[..., None].astype(np.float32), 3, axis=2))
+    colours = {}
+    for name, image in (("as is", render), ("warm", relit(render, kelvin_gains(3200)))):
+        write_image(tmp_path / f"{name}.png", image)
+        for keep in (False, True):
+            values = match(model, str(tmp_path / f"{name}.png"), mask_path=str(tmp_path / "mask.png"),
+                           neutral_light=not keep)["params"]
+            colours[name, keep] = np.array([values[c] for c in ("red", "green", "blue")]) / 255
+    assert np.abs(colours["as is", False] - colours["as is", True]).max() < 0.03
+    fast_moved, encoder_moved = (delta_e(colours["as is", keep], colours["warm", keep]) for keep in (False, True))
+    assert fast_moved < encoder_moved / 2, (fast_moved, encoder_moved)

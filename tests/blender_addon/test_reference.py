@@ -77,8 +77,10 @@ def test_a_lips_mask_frames_the_reference_and_is_its_region_and_whole_image_take
     whole = np.random.default_rng(1).random((100, 100, 3)).astype(np.float32)
     mask = mask_with_box(100, 100, slice(40, 50), slice(30, 70))
     framed = lips_reference(whole, mask=mask)
-    assert framed.box == (24, 19, 52, 52) and framed.lips is None and framed.notes == []
+    assert framed.box == (24, 19, 52, 52) and framed.lips is None and framed.notes == [framed.light.describe()]
     assert np.array_equal(framed.region[1], mask[19:71, 24:76])
+    as_it_is = lips_reference(whole, mask=mask, neutral_light=False)
+    assert as_it_is.light is None and as_it_is.notes == [] and np.array_equal(as_it_is.image, whole[19:71, 24:76])
     plain = lips_reference(whole, find_lips=False)
     assert plain.box == (0, 0, 100, 100) and plain.region is None and np.array_equal(plain.image, whole)
 
@@ -103,3 +105,46 @@ def test_a_photo_read_again_is_decoded_once_until_its_file_changes(tmp_path, mon
     assert len(decoded) == 1 and second[0, 0].tolist() == [0, 0, 0] and np.allclose(second[1:], 0.25)
     write_image(path, np.full((24, 20, 3), 0.75, np.float32))  # a new version of the file
     assert np.allclose(module.load_reference(str(path)), 0.75) and len(decoded) == 2
+
+
+def test_the_photos_light_is_taken_out_so_a_re_lit_portrait_reads_nearly_as_the_original():
+    """A warm 3,200 K light on the astronaut: the framed lips come back near the original's once the light read from
+    her skin is taken out, and the hair patch of the same photo likewise."""
+    import skimage.data
+
+    from blender_addon.reference import hair_reference, lips_reference
+    from vto_core.colour import srgb_to_lab
+    from vto_core.photo_light import kelvin_gains, relit
+
+    photo = skimage.data.astronaut().astype(np.float32) / 255
+    warm = relit(photo, kelvin_gains(3200))
+    original, under_warm = lips_reference(photo), lips_reference(warm)
+    raw = lips_reference(warm, neutral_light=False)
+    assert "warm" in under_warm.light.describe() and under_warm.light.cast[0] > 1.3 > original.light.cast[0]
+
+    def lips_lab(reference):
+        rgb, mask = reference.region
+        return srgb_to_lab(rgb[mask > 0.5].mean(axis=0))
+
+    left, raw_shift = (np.linalg.norm(lips_lab(r) - lips_lab(original)) for r in (under_warm, raw))
+    assert left < raw_shift / 3, (left, raw_shift)
+    patch = (150, 20, 80, 70)  # her hair (benchmarks/photos/photos.json)
+    hair, warm_hair = (hair_reference(image, crop=patch) for image in (photo, warm))
+    raw_hair = hair_reference(warm, crop=patch, neutral_light=False)
+    assert warm_hair.light is not None and "taken out" in warm_hair.notes[0] and raw_hair.light is None
+
+    def hair_lab(reference):
+        return srgb_to_lab(reference.image.mean(axis=(0, 1)))
+
+    left, raw_shift = (np.linalg.norm(hair_lab(r) - hair_lab(hair)) for r in (warm_hair, raw_hair))
+    assert left < raw_shift / 2, (left, raw_shift)  # three quarters of the cast's log read: ~60 % of its ΔE
+
+
+def test_a_hair_patch_without_a_face_is_read_as_it_is_and_says_so():
+    from blender_addon.reference import hair_reference
+
+    patch = np.full((40, 40, 3), (0.4, 0.3, 0.2), np.float32)
+    reference = hair_reference(patch)
+    assert reference.light is None and reference.notes == ["no face in the photo to read its light from: the hair is "
+                                                           "read as it is"]
+    assert np.array_equal(reference.image, patch[:38, :38]) or np.array_equal(reference.image, patch)

@@ -1,0 +1,140 @@
+"""The photo's light, read apart from the product: its colour from the skin beside the lips, taken out of the photo
+before anything reads the material (the paper's illuminant estimation, for one photo).
+
+A global change of light (a warm lamp, a cool shade, a dark exposure) multiplies every linear pixel by per-channel
+gains k (3,). The skin shows k times its own colour, so the skin is the reference. Its mean log colour s is the log
+of a skin (Gaussian: the default scene's skins, mean m, covariance S, which the encoder learned on) plus log k (a
+Gaussian prior L). The most likely light is
+
+    log k = L (L + S)^-1 (s - m) = A (s - m)
+
+Skins differ little in chromaticity, so about three quarters of a colour cast's log is read as light. They differ
+far more in lightness than exposures do, and a dark skin under a bright light cannot be told from a light skin in a
+dim one: L holds no exposure, which is left to the encoder (it reads the lips beside the skin, as it learned on the
+default scene's metered renders, benchmarks/results/light.md). Dividing the photo by k (neutral_photo) gives what the
+default scene's camera would show. Under a second global change k2 the light read becomes k * k2^A, so k2^(I - A)
+is left after neutralising.
+
+Shapes: images (H, W, 3) display sRGB in [0, 1]; colours and gains (3,) linear RGB.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .colour import linear_to_srgb, srgb_to_linear
+
+# The default lips scene's skin beside the lips (vto_core.appearance.skin_colour of 64 px, 16 spp renders of default
+# sources 910000-910095, bare lips): the mean and covariance of its log linear RGB. Reproduce:
+# `python -m benchmarks.bench_light --calibrate`.
+SKIN_LOG_MEAN = np.array([-0.9588, -1.5400, -1.9718])
+SKIN_LOG_COV = np.array([[0.4804, 0.4659, 0.4461],
+                         [0.4659, 0.4713, 0.4547],
+                         [0.4461, 0.4547, 0.4631]])
+# The prior on a photo's light: the standard deviation of its log gains in each chromatic direction (0.3: about the
+# cast of 3,700 K or 12,000 K light on a camera balanced for daylight). On renders of the default scene with their
+# source hidden, reading it costs the encoder nothing (37.63 dB either way, 24 looks at seed 9001); reading an
+# exposure of half a stop as well cost 1.0 dB there.
+LIGHT_CAST_SIGMA = 0.3
+MAX_GAIN = 8.0  # no estimated gain goes beyond this either way (a skin of one flat channel, a synthetic image)
+NEUTRAL_KELVIN = 6504.0  # the black body nearest D65, the white of sRGB: what a daylight-balanced photo shows neutral
+
+
+def read_gain(cast_sigma: float = LIGHT_CAST_SIGMA, skin_log_cov: np.ndarray = SKIN_LOG_COV) -> np.ndarray:
+    """A (3, 3) = L (L + S)^-1: how much of the skin's log deviation from the typical skin is read as light, for a
+    light prior L of `cast_sigma` across grey (no exposure)."""
+    light = cast_sigma ** 2 * (np.eye(3) - np.full((3, 3), 1.0 / 3.0))
+    return light @ np.linalg.inv(light + np.asarray(skin_log_cov, np.float64))
+
+
+READ_GAIN = read_gain()
+
+
+@dataclass(frozen=True)
+class PhotoLight:
+    """A photo's light as read from its skin: per-channel linear gains (3,) against the default scene's light, and
+    where they were read ('skin', or 'none' when the photo shows no skin to read them from: gains 1)."""
+
+    gains: np.ndarray
+    read_from: str
+
+    @property
+    def cast(self) -> np.ndarray:
+        """(3,) the gains over their geometric mean: the light's colour."""
+        return self.gains / np.exp(np.mean(np.log(self.gains)))
+
+    def describe(self) -> str:
+        """One sentence for the artist: what was read, and that it was taken out."""
+        if self.read_from == "none":
+            return "no skin beside the lips to read the photo's light from: the photo is read as it is"
+        red, _, blue = self.cast
+        warmth = "neutral" if abs(math.log(red / blue)) < 0.1 else ("warm" if red > blue else "cool")
+        return f"the photo's light, read from the skin: {warmth} (R x{red:.2f}, B x{blue:.2f}), taken out"
+
+
+def light_from_skin(skin_linear: np.ndarray | None) -> PhotoLight:
+    """The light (PhotoLight) whose gains most likely turned a default-scene skin into `skin_linear` (3,, the mean
+    linear RGB of the skin beside the lips, vto_core.appearance.skin_colour); gains 1 for None (no skin seen).
+    Finite for any input: non-finite or non-positive channels are floored, the gains clipped to MAX_GAIN."""
+    if skin_linear is None:
+        return PhotoLight(np.ones(3), "none")
+    skin = np.nan_to_num(np.asarray(skin_linear, np.float64), nan=0.0, posinf=1.0, neginf=0.0)
+    log_gains = READ_GAIN @ (np.log(np.maximum(skin, 1e-4)) - SKIN_LOG_MEAN)
+    return PhotoLight(np.clip(np.exp(log_gains), 1.0 / MAX_GAIN, MAX_GAIN), "skin")
+
+
+def light_of(image: np.ndarray, lips: np.ndarray) -> PhotoLight:
+    """The light of a photo (H, W, 3) read from the skin around its lips (mask (H, W))."""
+    from .appearance import skin_colour
+
+    return light_from_skin(skin_colour(image, lips))
+
+
+def relit(image: np.ndarray, gains: np.ndarray) -> np.ndarray:
+    """(H, W, 3) display -> (H, W, 3) float32 display: each linear channel times `gains` (3,), clipped to [0, 1] as a
+    camera would. Dividing by a light's gains (1 / gains) neutralises it."""
+    linear = srgb_to_linear(np.asarray(image, np.float32)) * np.asarray(gains, np.float32)
+    return np.clip(linear_to_srgb(np.clip(linear, 0.0, 1.0)), 0.0, 1.0).astype(np.float32)
+
+
+def neutral_photo(image: np.ndarray, light: PhotoLight) -> np.ndarray:
+    """(H, W, 3) display with `light` taken out: what it would show under the default scene's light."""
+    if light.read_from == "none":
+        return np.asarray(image, np.float32)
+    return relit(image, 1.0 / light.gains)
+
+
+def planck_xy(kelvin: float) -> tuple[float, float]:
+    """CIE 1931 chromaticity (x, y) of a black body at `kelvin` (1,667-25,000 K; Kim et al.'s cubic fit)."""
+    t = float(np.clip(kelvin, 1667.0, 25000.0))
+    if t <= 4000.0:
+        x = -0.2661239e9 / t ** 3 - 0.2343589e6 / t ** 2 + 0.8776956e3 / t + 0.179910
+    else:
+        x = -3.0258469e9 / t ** 3 + 2.1070379e6 / t ** 2 + 0.2226347e3 / t + 0.240390
+    if t <= 2222.0:
+        y = -1.1063814 * x ** 3 - 1.34811020 * x ** 2 + 2.18555832 * x - 0.20219683
+    elif t <= 4000.0:
+        y = -0.9549476 * x ** 3 - 1.37418593 * x ** 2 + 2.09137015 * x - 0.16748867
+    else:
+        y = 3.0817580 * x ** 3 - 5.87338670 * x ** 2 + 3.75112997 * x - 0.37001483
+    return x, y
+
+
+XYZ_TO_LINEAR_SRGB = np.array([[3.2404542, -1.5371385, -0.4985314],
+                               [-0.9692660, 1.8760108, 0.0415560],
+                               [0.0556434, -0.2040259, 1.0572252]])
+
+
+def kelvin_gains(kelvin: float, ev: float = 0.0) -> np.ndarray:
+    """(3,) von Kries gains in linear sRGB that re-light a photo balanced for daylight (D65) with a black body at
+    `kelvin` in place of one at NEUTRAL_KELVIN, green kept, and `ev` stops brighter: what a camera left at daylight
+    balance records under that light."""
+    def white(t: float) -> np.ndarray:
+        x, y = planck_xy(t)
+        return XYZ_TO_LINEAR_SRGB @ np.array([x / y, 1.0, (1.0 - x - y) / y])
+
+    rgb = white(kelvin) / white(NEUTRAL_KELVIN)
+    return rgb / rgb[1] * 2.0 ** ev
