@@ -54,7 +54,7 @@ FAST_FITS = {"lipstick": False, "hair": True}
 # Lips: Better and Best fit the photo's colour on default faces, whose shape and light are not the photo's, and come
 # out 3.5-4 dB below Fast there; they stay on `vto match --quality` for the photo's colour on the default scene.
 OFFERED = {"lipstick": ("FAST",), "hair": QUALITIES}
-NOT_OFFERED = {"lipstick": "Better, Best: below Fast for lips (fitted on default faces)"}
+NOT_OFFERED = {"lipstick": "Better, Best: below Fast for lips"}
 
 
 def parameter_difference(unit: np.ndarray, start: np.ndarray, wraps: np.ndarray) -> np.ndarray:

@@ -26,6 +26,7 @@ MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that
 LIPS_WIDTH_SHARE = 0.78
 MODELS = Path(__file__).parent / "models"
 FACE_DETECTOR, FACE_LANDMARKS = "face_detector.onnx", "face_landmarks.onnx"  # blender_addon/models/face_locator.md
+NO_FACE_LIGHT = "no face: the photo's light is kept"  # a hair photo with no face to read its light from
 HAIR_SQUARE_SHARE = 0.95  # the hair encoder reads the largest square of a hair mask that is this share hair
 
 
@@ -274,7 +275,7 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
             light, whole = read_light(whole, lips.mask)
             notes.append(light.describe())
         else:
-            notes.append("no face in the photo to read its light from: the hair is read as it is")
+            notes.append(NO_FACE_LIGHT)
     rgb = _cut(whole, box)
     mask = np.ones(rgb.shape[:2], np.float32) if mask is None else _cut(mask, box)
     if not mask.any():

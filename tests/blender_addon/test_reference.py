@@ -141,10 +141,9 @@ def test_the_photos_light_is_taken_out_so_a_re_lit_portrait_reads_nearly_as_the_
 
 
 def test_a_hair_patch_without_a_face_is_read_as_it_is_and_says_so():
-    from blender_addon.reference import hair_reference
+    from blender_addon.reference import NO_FACE_LIGHT, hair_reference
 
     patch = np.full((40, 40, 3), (0.4, 0.3, 0.2), np.float32)
     reference = hair_reference(patch)
-    assert reference.light is None and reference.notes == ["no face in the photo to read its light from: the hair is "
-                                                           "read as it is"]
+    assert reference.light is None and reference.notes == [NO_FACE_LIGHT]
     assert np.array_equal(reference.image, patch[:38, :38]) or np.array_equal(reference.image, patch)
