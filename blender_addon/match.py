@@ -153,7 +153,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
         result["light"] = {"gains": [round(float(g), 4) for g in prepared.light.gains],
                            "read_from": prepared.light.read_from}
     encoder = {k: values[k] for k in spec.modelled}  # Better and Best's candidate starts: it and Fast's
-    if source is None and prepared.region is not None:  # a photo: its colour, through the colour imitator
+    if source is None and prepared.region is not None:  # a photo: Fast (hair: its colour, through the colour imitator)
         fast, note = fit_photo_fast(spec, prepared.region, encoder)
         result["notes"] = prepared.notes + ([note] if note else [])
         result["params"] = values = spec.full_values(photo_values(spec, fast))
