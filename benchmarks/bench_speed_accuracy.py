@@ -17,6 +17,8 @@ from pathlib import Path
 
 from benchmarks.common import RESULTS, machine
 
+EMPTY = "''"  # an empty list, as the shell passes one
+
 
 def pareto(points: list[tuple[float, float, str]]) -> list[tuple[float, float, str]]:
     """The (ms, psnr, name) points no other point beats on both time and PSNR, fastest first."""
@@ -60,7 +62,7 @@ def run(model: str, imitator: str | None, n: int, res: int, samples: int, seed: 
               "", "Reproduce: `.venv/bin/python -m benchmarks.bench_speed_accuracy --model " + model +
               (f" --imitator {imitator} --steps {','.join(map(str, steps))}" if imitator else " --steps ''") +
               f" --n {n} --res {res} --samples {samples} --seed {seed} --budgets {','.join(map(str, budgets))}"
-              f" --from-mean {','.join(map(str, from_mean))}"
+              f" --from-mean {','.join(map(str, from_mean)) or EMPTY}"
               + (f" --cma-budgets {','.join(map(str, cma_budgets))}" if cma_budgets else "")
               + (f" --photo {','.join(photo)}" if photo else "") + "`."]
     results.mkdir(parents=True, exist_ok=True)
