@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .colour import linear_to_srgb, srgb_to_linear
+from .portrait_light import WARM_COOL
 
 # The default lips scene's skin beside the lips (vto_core.appearance.skin_colour of 64 px, 16 spp renders of default
 # sources 910000-910095, bare lips): the mean and covariance of its log linear RGB. Reproduce:
@@ -38,13 +39,13 @@ SKIN_LOG_COV = np.array([[0.4804, 0.4659, 0.4461],
                          [0.4659, 0.4713, 0.4547],
                          [0.4461, 0.4547, 0.4631]])
 # The prior on a photo's light: the standard deviation of its log gains in each chromatic direction. The default
-# scene's camera: vto_core.portrait_light.WARM_COOL. Any light: 0.6, twice the cast of 3,700 K or 12,000 K light on a
+# scene's camera: its residual warm/cool error (portrait_light.WARM_COOL). Any light: 0.6, twice the cast of 3,700 K or 12,000 K light on a
 # camera balanced for daylight. Encoder on the photo with its light taken out, against the encoder alone, on renders
 # with their source hidden (24 looks at seeds 9001 and 4242): +0.06 and -0.13 dB with this mixture; -0.19 and -1.04
 # dB with the wide Gaussian alone (it read the default scene's own skins as light); on the 18 portraits re-lit, the
 # same median (1.7) and largest (4.4) CIEDE2000 either way. Reading an exposure of half a stop as well cost 1.0 dB on
 # those renders.
-SCENE_CAST_SIGMA = 0.03
+SCENE_CAST_SIGMA = WARM_COOL
 ANY_CAST_SIGMA = 0.6
 STRONG_LIGHT_PRIOR = 0.5  # the prior probability that a photo's light is not the default scene's
 MAX_GAIN = 8.0  # no estimated gain goes beyond this either way (a skin of one flat channel, a synthetic image)
@@ -124,8 +125,8 @@ def light_of(image: np.ndarray, lips: np.ndarray) -> PhotoLight:
 def relit(image: np.ndarray, gains: np.ndarray) -> np.ndarray:
     """(H, W, 3) display -> (H, W, 3) float32 display: each linear channel times `gains` (3,), clipped to [0, 1] as a
     camera would. Dividing by a light's gains (1 / gains) neutralises it. Each channel's curve is read from a table
-    of TABLE_SIZE points at the nearest one (within 1e-4 of the exact curve; a 1-megapixel photo in milliseconds,
-    where the exact powers take ~150 ms here); inputs outside [0, 1] (HDR, negatives, NaN) are clipped first."""
+    of TABLE_SIZE points at the nearest one (within 1e-4 of the exact curve; a 1-megapixel photo in ~30 ms,
+    where the exact powers took ~150-300 ms here); inputs outside [0, 1] (HDR, negatives, NaN) are clipped first."""
     linear = srgb_to_linear(TABLE_INPUTS)[:, None] * np.asarray(gains, np.float32)
     curves = np.clip(linear_to_srgb(np.clip(linear, 0.0, 1.0)), 0.0, 1.0)  # (TABLE_SIZE, 3)
     image = np.clip(np.nan_to_num(np.asarray(image, np.float32), nan=0.0), 0.0, 1.0)
