@@ -54,7 +54,7 @@ def calibrate() -> str:
             f"SKIN_LOG_COV = np.array({np.round(np.cov(logs.T), 4).tolist()})")
 
 
-def estimates(path: Path, mask: Path | None, qualities: list[str]) -> dict[str, dict]:
+def lips_estimates(path: Path, mask: Path | None, qualities: list[str]) -> dict[str, dict]:
     """method -> all parameter values for the photo at `path` (its lips mask at `mask`, or found): the shipped
     qualities through blender_addon.match.match, and the two readings with the photo's light left in."""
     from blender_addon.match import match
@@ -111,7 +111,7 @@ def run_renders(looks: int, qualities: list[str], work: Path) -> tuple[list, dic
             path = work / f"look{look}_{name.replace(' ', '_').replace(',', '')}.png"
             write_image(path, image)
             apparent[name] = {method: apparent_colour("lipstick", found)["mean"]
-                              for method, found in estimates(path, mask, qualities).items()}
+                              for method, found in lips_estimates(path, mask, qualities).items()}
         for method, errors in spread(apparent, "own light").items():
             pooled.setdefault(method, []).extend(errors.values())
             rows.append([look, method] + [f"{errors[name]:.1f}" for name in list(lights)[1:]])
@@ -148,7 +148,7 @@ def run_photos(records: list[dict], qualities: list[str], work: Path, renderer: 
         for name, (kelvin, ev) in {"as it is": (6504.0, 0.0), **PHOTO_SHIFTS}.items():
             path = work / f"{stem}_{name.replace(' ', '_').replace(',', '')}.png"
             write_image(path, photo if name == "as it is" else relit(photo, kelvin_gains(kelvin, ev)))
-            found = (estimates(path, None, qualities) if renderer == "lipstick" else
+            found = (lips_estimates(path, None, qualities) if renderer == "lipstick" else
                      hair_estimates(path, tuple(record["hair_patches"][0]), qualities))
             apparent[name] = {method: apparent_colour(renderer, values)["mean"] for method, values in found.items()}
         for method, errors in spread(apparent, "as it is").items():
