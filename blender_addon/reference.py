@@ -199,6 +199,11 @@ def _cut(image: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
     return np.ascontiguousarray(image[y:y + h, x:x + w])
 
 
+def _cut_read(whole: np.ndarray, box: tuple[int, int, int, int], light) -> np.ndarray:
+    """The part `box` (x, y, w, h) of `whole`, with the photo's `light` taken out (None: as it is)."""
+    return _cut(whole, box) if light is None else neutral_photo(_cut(whole, box), light)
+
+
 def in_whole(lips, box: tuple[int, int, int, int], shape: tuple[int, int]):
     """Lips found inside `box` (x, y, w, h) of an image of `shape` (H, W), in that image's coordinates."""
     import dataclasses
@@ -243,7 +248,7 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
         notes.append(light.describe())
     if crop is None and mask is not None:
         box = lips_frame(mask)
-    image = _cut(whole, box) if light is None else neutral_photo(_cut(whole, box), light)
+    image = _cut_read(whole, box, light)
     region = None if mask is None else (image, _cut(mask, box))
     return Reference(image, region, whole, box, lips, notes, light)
 
@@ -269,7 +274,7 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
             notes.append(light.describe())
         else:
             notes.append(NO_FACE_LIGHT)
-    rgb = _cut(whole, box) if light is None else neutral_photo(_cut(whole, box), light)
+    rgb = _cut_read(whole, box, light)
     mask = np.ones(rgb.shape[:2], np.float32) if mask is None else _cut(mask, box)
     if not mask.any():
         raise VtoError("the hair mask holds no hair inside the crop")

@@ -39,18 +39,18 @@ SKIN_LOG_COV = np.array([[0.4804, 0.4659, 0.4461],
                          [0.4659, 0.4713, 0.4547],
                          [0.4461, 0.4547, 0.4631]])
 # The prior on a photo's light: the standard deviation of its log gains in each chromatic direction. The default
-# scene's camera: its residual warm/cool error (portrait_light.WARM_COOL). Any light: 0.6, twice the cast of 3,700 K or 12,000 K light on a
-# camera balanced for daylight. Encoder on the photo with its light taken out, against the encoder alone, on renders
-# with their source hidden (24 looks at seeds 9001 and 4242): +0.06 and -0.13 dB with this mixture; -0.19 and -1.04
-# dB with the wide Gaussian alone (it read the default scene's own skins as light); on the 18 portraits re-lit, the
-# same median (1.7) and largest (4.4) CIEDE2000 either way. Reading an exposure of half a stop as well cost 1.0 dB on
-# those renders.
+# scene's camera: its residual warm/cool error (portrait_light.WARM_COOL). Any light: 0.6, twice the cast of 3,700 K
+# or 12,000 K light on a camera balanced for daylight. Encoder on the photo with its light taken out, against the
+# encoder alone, on renders with their source hidden (24 looks at seeds 9001 and 4242): +0.06 and -0.13 dB with this
+# mixture; -0.19 and -1.04 dB with the wide Gaussian alone (it read the default scene's own skins as light); on the 18
+# portraits re-lit, the same median (1.7) and largest (4.4) CIEDE2000 either way. Reading an exposure of half a stop
+# as well cost 1.0 dB on those renders.
 SCENE_CAST_SIGMA = WARM_COOL
 ANY_CAST_SIGMA = 0.6
 STRONG_LIGHT_PRIOR = 0.5  # the prior probability that a photo's light is not the default scene's
 MAX_GAIN = 8.0  # no estimated gain goes beyond this either way (a skin of one flat channel, a synthetic image)
 TABLE_SIZE = 65536
-TABLE_INPUTS = np.linspace(0.0, 1.0, TABLE_SIZE, dtype=np.float32)
+TABLE_LINEAR = srgb_to_linear(np.linspace(0.0, 1.0, TABLE_SIZE, dtype=np.float32))  # the table's inputs, linear
 NEUTRAL_KELVIN = 6504.0  # the black body nearest D65, the white of sRGB: what a daylight-balanced photo shows neutral
 
 
@@ -124,12 +124,15 @@ def light_of(image: np.ndarray, lips: np.ndarray) -> PhotoLight:
 
 def relit(image: np.ndarray, gains: np.ndarray) -> np.ndarray:
     """(H, W, 3) display -> (H, W, 3) float32 display: each linear channel times `gains` (3,), clipped to [0, 1] as a
-    camera would. Dividing by a light's gains (1 / gains) neutralises it. Each channel's curve is read from a table
-    of TABLE_SIZE points at the nearest one (within 1e-4 of the exact curve; a 1-megapixel photo in ~30 ms,
-    where the exact powers took ~150-300 ms here); inputs outside [0, 1] (HDR, negatives, NaN) are clipped first."""
-    linear = srgb_to_linear(TABLE_INPUTS)[:, None] * np.asarray(gains, np.float32)
-    curves = np.clip(linear_to_srgb(np.clip(linear, 0.0, 1.0)), 0.0, 1.0)  # (TABLE_SIZE, 3)
+    camera would. Dividing by a light's gains (1 / gains) neutralises it. Inputs outside [0, 1] (HDR, negatives, NaN)
+    are clipped first. An image with more values than a table of TABLE_SIZE points per channel reads each channel's
+    curve from that table at the nearest point (within 1e-4 of the exact curve; a 1-megapixel photo in ~40 ms, where
+    the exact powers took ~90 ms); a smaller one (the framed lips) is computed exactly, cheaper than the table."""
     image = np.clip(np.nan_to_num(np.asarray(image, np.float32), nan=0.0), 0.0, 1.0)
+    gains = np.asarray(gains, np.float32)
+    if image.size <= 3 * TABLE_SIZE:
+        return np.clip(linear_to_srgb(np.clip(srgb_to_linear(image) * gains, 0.0, 1.0)), 0.0, 1.0)
+    curves = np.clip(linear_to_srgb(np.clip(TABLE_LINEAR[:, None] * gains, 0.0, 1.0)), 0.0, 1.0)  # (TABLE_SIZE, 3)
     index = (image * (TABLE_SIZE - 1) + 0.5).astype(np.int32)
     return curves[index, np.arange(3)].astype(np.float32)
 

@@ -110,3 +110,11 @@ def test_a_wider_light_prior_reads_more_of_a_cast_and_none_reads_exposure():
     cast = np.array([1.0, 0.0, -1.0])
     assert np.linalg.norm(wide @ cast) > 0.9 * np.linalg.norm(cast) > np.linalg.norm(narrow @ cast) * 5
     np.testing.assert_allclose(wide @ np.ones(3), 0.0, atol=0.05)
+
+
+def test_a_large_photo_is_re_lit_through_tables_within_1e_4_of_the_exact_curves():
+    rng = np.random.default_rng(3)
+    small = rng.random((20, 20, 3)).astype(np.float32)
+    large = np.tile(small, (60, 60, 1))  # 1,440,000 values: read from the tables
+    gains = kelvin_gains(3200, 0.4)
+    np.testing.assert_allclose(relit(large, gains), np.tile(relit(small, gains), (60, 60, 1)), atol=1e-4)
