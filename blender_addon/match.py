@@ -157,7 +157,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
         fast, note = fit_photo_fast(spec, prepared.region, encoder)
         result["notes"] = prepared.notes + ([note] if note else [])
         result["params"] = values = spec.full_values(photo_values(spec, fast))
-        result["fast_ms"] = 1000 * (time.perf_counter() - started)  # the encoder and the colour imitator's fit
+        result["fast_ms"] = 1000 * (time.perf_counter() - started)  # the encoder (and, for hair, the colour fit)
     if quality != "FAST":
         if prepared.region is None:
             raise VtoError(f"--quality {quality.lower()} {NO_REGION} (not --whole-image)")
