@@ -49,9 +49,10 @@ def speed(repeats: int) -> str:
     from skimage import data
 
     from vto_core.errors import VtoError
+    from vto_core.face_reader import FaceReader
     from vto_core.lips_locator import LipsLocator
 
-    locator = LipsLocator(MODELS / "face_detector.onnx", MODELS / "face_landmarks.onnx", threads=1)
+    locator = LipsLocator(FaceReader(MODELS / "face_detector.onnx", MODELS / "face_landmarks.onnx", threads=1))
     astronaut = data.astronaut()
 
     def quietly(image):
@@ -102,12 +103,13 @@ def photo_records() -> list[tuple[str, np.ndarray, list | None, int, bool]]:
 def accuracy() -> str:
     """The accuracy table on the real-photo set as markdown ('' when the set is missing)."""
     from vto_core.errors import VtoError
+    from vto_core.face_reader import FaceReader
     from vto_core.lips_locator import LipsLocator
 
     records = photo_records()
     if not records:
         return ""
-    locator = LipsLocator(MODELS / "face_detector.onnx", MODELS / "face_landmarks.onnx", threads=1)
+    locator = LipsLocator(FaceReader(MODELS / "face_detector.onnx", MODELS / "face_landmarks.onnx", threads=1))
     rows, ious, held_out = [], [], []
     for name, image, hand_box, faces, held in records:
         name += " (held out)" if held else ""

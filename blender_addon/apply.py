@@ -13,6 +13,8 @@ all feed the same function:
                                 hair (the encoder reads its largest square; Better and Best fit all of it)
     find_lips                   lipstick, no mask: find the lips with the face locator (default True); False takes
                                 the image (or crop) as it is
+    find_hair                   hair, no crop or mask: find the hair around the largest face (default True); a
+                                picture with no face is read whole as a patch of hair; False takes it all as hair
     neutral_light               read the photo's light from the skin beside the lips and take it out (default
                                 True; blender_addon.reference)
     model_path                  the encoder; "" = the add-on preferences' path, else the shipped default

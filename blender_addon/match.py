@@ -101,12 +101,12 @@ def photo_source(image_path: Path) -> str | None:
 def match(model: str, image_path: str, source=None, refine: str = "none", imitator: str | None = None,
           res: int | None = None, samples: int = DEFAULT_SAMPLES, seed: int = 0, objective: str = "mse",
           start_at: str = "encoder", imitator_refine=None, lighting: str | None = None, quality: str = "fast",
-          crop=None, mask_path: str | None = None, find_lips: bool = True, neutral_light: bool = True) -> dict:
+          crop=None, mask_path: str | None = None, find_region: bool = True, neutral_light: bool = True) -> dict:
     """Estimate (and refine) the parameters of `image_path`.
 
     The reference is made ready as the panel makes it (blender_addon.reference.read_reference): a crop, a mask, or
-    for lipstick the lips found in the photo; a hair photo's '<name>_mask' beside it is its mask. With a `source`
-    the image is a render of that source and is read whole.
+    the lips or the hair found in the photo (find_region; False takes the image as it is); a hair photo's
+    '<name>_mask' beside it is its mask. With a `source` the image is a render of that source and is read whole.
     quality: "fast" (the encoder), "better" or "best" (the photo fit of blender_addon.photo_fit, no source needed).
     refine: against a known source instead ('render:B', 'cma:B', 'imitator:K').
     Returns {'renderer', 'params': all parameters (raw values), 'refined', 'note', 'notes', 'encoder_ms'} (a photo:
@@ -141,7 +141,8 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
 
             mask_path = str(mask_path_for(Path(image_path)))
     settings = {"image_path": image_path, "crop": crop, "mask_path": mask_path,
-                "find_lips": find_lips and source is None, "neutral_light": neutral_light and source is None}
+                "find_lips": find_region and source is None, "find_hair": find_region and source is None,
+                "neutral_light": neutral_light and source is None}
     prepared = read_reference(spec.renderer, settings)
     started = time.perf_counter()
     values = session.predict(prepared.image)[0]
@@ -149,6 +150,9 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
               "encoder_ms": 1000 * (time.perf_counter() - started)}
     if prepared.lips is not None:
         result["lips"] = {"how": prepared.lips.how, "box": list(prepared.lips.box), "faces": prepared.lips.faces}
+    if prepared.hair is not None:
+        result["hair"] = {"box": list(prepared.hair.box), "faces": prepared.hair.faces,
+                          "share": round(float(prepared.hair.mask.mean()), 4)}
     if prepared.light is not None:
         result["light"] = {"gains": [round(float(g), 4) for g in prepared.light.gains],
                            "read_from": prepared.light.read_from}
@@ -255,7 +259,7 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
     parser.add_argument("--mask", default=None, help="a mask image: of the lips (the reference is framed around them "
                                                      "as the default scene frames its lips) or of the hair")
     parser.add_argument("--whole-image", action="store_true",
-                        help="lipstick: take the image (or crop) as it is instead of finding the lips in it")
+                        help="take the image (or crop) as it is instead of finding the lips or the hair in it")
     parser.add_argument("--keep-light", action="store_true",
                         help="lipstick: read the photo's colours as they are, its light included (default: the light "
                              "is read from the skin beside the lips and taken out)")
@@ -317,7 +321,7 @@ def match_material_cli(args, out: Path | None) -> int:
     blend = bpy.data.filepath
     settings = {"image_path": os.path.abspath(args.image), "model_path": os.path.abspath(args.model) if args.model
                 else "", "crop": crop, "mask_path": os.path.abspath(args.mask) if args.mask else "",
-                "quality": args.quality.upper(), "find_lips": not args.whole_image,
+                "quality": args.quality.upper(), "find_lips": not args.whole_image, "find_hair": not args.whole_image,
                 "neutral_light": not args.keep_light}
     result = match_into_material(args.material, settings)
     for warning in result["warnings"]:

@@ -79,6 +79,7 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
     model_path: StringProperty(name="Model", subtype="FILE_PATH", description="Encoder (.onnx); default: the panel's")
     quality: EnumProperty(name="Quality", items=QUALITY_ITEMS, default="FAST")
     find_lips: BoolProperty(name="Find Lips", default=True, description="Find the lips in the photo (lipstick)")
+    find_hair: BoolProperty(name="Find Hair", default=True, description="Find the hair in a portrait (hair)")
 
     def settings(self, stored) -> dict:
         """The stored panel settings (if any), overridden by whatever was passed to this call."""
@@ -89,7 +90,7 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
             settings.pop("image_name", None)
             settings["image_path" if passed("image_path") else "image_name"] = (
                 self.image_path if passed("image_path") else self.image_name)
-        for name in ("mask_path", "model_path", "quality", "find_lips"):
+        for name in ("mask_path", "model_path", "quality", "find_lips", "find_hair"):
             if passed(name):
                 settings[name] = getattr(self, name)
         if passed("crop"):

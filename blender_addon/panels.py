@@ -26,25 +26,24 @@ def split_column(layout):
 
 
 def draw_reference(column, props, preview_name: str, renderer: str) -> None:
-    """Reference (a file or an image of the .blend), its thumbnail with the crop and the lips found outlined, crop,
-    mask and (lipstick) whether to find the lips."""
+    """Reference (a file or an image of the .blend), its thumbnail with the crop and the lips or hair found outlined,
+    crop, mask and whether to find the lips or the hair."""
     column.prop(props, "image" if props.use_datablock else "image_path", text="Reference")
     column.prop(props, "use_datablock", text="Image in .blend")
     icon_id, why = thumbnail.icon(props, preview_name, renderer)
     if icon_id:
         column.template_icon(icon_value=icon_id, scale=THUMBNAIL_SCALE)
     if why and why != "no image chosen":
-        column.label(text=why, icon="INFO" if icon_id and not why.startswith("no lips") else "ERROR")
+        column.label(text=why, icon="INFO" if icon_id and not why.startswith(("no lips", "no hair")) else "ERROR")
     column.prop(props, "use_crop", text="Part of the Image")
     if props.use_crop:
         box = column.column(align=True)
         for index, name in enumerate(("X", "Y", "Width", "Height")):
             box.prop(props, "crop", index=index, text=name)
     column.prop(props, "mask_path", text="Mask")
-    if renderer == "lipstick":
-        row = column.row()
-        row.active = not props.mask_path  # a mask says where the lips are
-        row.prop(props, "find_lips")
+    row = column.row()
+    row.active = not props.mask_path and not (renderer == "hair" and props.use_crop)  # these say where it is
+    row.prop(props, "find_lips" if renderer == "lipstick" else "find_hair")
 
 
 def draw_quality(column, props, renderer: str) -> None:

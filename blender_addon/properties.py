@@ -27,6 +27,10 @@ class VTO_PG_match_settings(bpy.types.PropertyGroup):
     find_lips: BoolProperty(name="Find Lips", default=True,
                             description="Find the lips in the photo with a face model (a portrait, or a close-up of "
                                         "lips); off: the image or crop is taken as it is")
+    find_hair: BoolProperty(name="Find Hair", default=True,
+                            description="Find the hair around the largest face of a portrait (a person model and the "
+                                        "face mesh); a picture with no face is read whole as a patch of hair; off: "
+                                        "the image or crop is taken as all hair")
     use_crop: BoolProperty(name="Crop", default=False, description="Estimate from a part of the reference only")
     crop: FloatVectorProperty(name="Crop", size=4, min=0.0, default=(0.0, 0.0, 1.0, 1.0),
                               description="x, y, width, height from the top-left corner: in pixels, or fractions of "
@@ -47,7 +51,8 @@ class VTO_PG_match_settings(bpy.types.PropertyGroup):
 def settings_dict(props: VTO_PG_match_settings) -> dict:
     """The panel's settings as the plain dict blender_addon.apply takes."""
     settings = {"quality": props.quality, "model_path": props.model_path, "mask_path": props.mask_path,
-                "crop": tuple(props.crop) if props.use_crop else None, "find_lips": props.find_lips}
+                "crop": tuple(props.crop) if props.use_crop else None, "find_lips": props.find_lips,
+                "find_hair": props.find_hair}
     if props.use_datablock:
         settings["image_name"] = props.image.name if props.image else ""
     else:

@@ -1,5 +1,5 @@
 """The reference image of a match: a file or an image datablock, checked, with an optional crop or mask, made ready
-for a renderer: lips found and framed, a square of hair cut.
+for a renderer: lips found and framed, hair found and a square of it cut.
 
 Shared by `vto match`, the panel's operator (apply.py) and `vto batch`; bpy is imported only for datablocks and
 Blender-relative ('//') paths.
@@ -8,6 +8,7 @@ Blender-relative ('//') paths.
 from __future__ import annotations
 
 import functools
+import hashlib
 import math
 import os
 import warnings
@@ -27,7 +28,9 @@ MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that
 LIPS_WIDTH_SHARE = 0.78
 MODELS = Path(__file__).parent / "models"
 FACE_DETECTOR, FACE_LANDMARKS = "face_detector.onnx", "face_landmarks.onnx"  # blender_addon/models/face_locator.md
+PERSON_SEGMENTER = "person_segmenter.onnx"  # blender_addon/models/person_segmenter.md
 NO_FACE_LIGHT = "no face: the photo's light is kept"  # a hair photo with no face to read its light from
+NO_FACE_HAIR = "no face: the whole image is read as hair"
 HAIR_SQUARE_SHARE = 0.95  # the hair encoder reads the largest square of a hair mask that is this share hair
 
 
@@ -172,9 +175,9 @@ class Reference:
     image: (H, W, 3) what the encoder reads (lips framed as the default scene frames them; a square of hair).
     region: (rgb (h, w, 3), mask (h, w)) the pixels of the lips or hair, for a fit of their colour statistics
     (blender_addon.photo_fit); None when unknown. lips: what the lips locator found, in the coordinates of `whole`
-    (or None). box: (x, y, w, h) of `image` inside `whole`. notes: what the user should be told. light: the photo's
-    light (vto_core.photo_light.PhotoLight) that was taken out of `image` and `region`, or None where the photo was
-    read as it is (`whole` is always as given).
+    (or None); hair: what the hair locator found (or None). box: (x, y, w, h) of `image` inside `whole`. notes: what
+    the user should be told. light: the photo's light (vto_core.photo_light.PhotoLight) that was taken out of `image`
+    and `region`, or None where the photo was read as it is (`whole` is always as given).
     """
 
     image: np.ndarray
@@ -184,14 +187,30 @@ class Reference:
     lips: object = None
     notes: list[str] = field(default_factory=list)
     light: object = None
+    hair: object = None  # vto_core.hair_locator.HairFound where the hair was found in a portrait
 
 
-def locate_lips(image: np.ndarray):
-    """vto_core.lips_locator.LipsFound for (H, W, 3) with the shipped face models (loaded once); VtoError 'no lips
-    found ...' where there are none."""
+def read_face(image: np.ndarray):
+    """The largest face of (H, W, 3) (vto_core.face_reader.FaceRead) with the shipped face models, or None."""
+    from vto_core.face_reader import cached_reader
+
+    return cached_reader(MODELS / FACE_DETECTOR, MODELS / FACE_LANDMARKS).read(image)
+
+
+def locate_lips(image: np.ndarray, face=None):
+    """vto_core.lips_locator.LipsFound for (H, W, 3) with the shipped face models (loaded once), from `face` where it
+    was read already; VtoError 'no lips found ...' where there are none."""
     from vto_core.lips_locator import cached_locator
 
-    return cached_locator(MODELS / FACE_DETECTOR, MODELS / FACE_LANDMARKS).locate(image)
+    return cached_locator(MODELS / FACE_DETECTOR, MODELS / FACE_LANDMARKS).locate(image, face)
+
+
+def locate_hair(image: np.ndarray, face):
+    """vto_core.hair_locator.HairFound: the hair of `face`'s person in (H, W, 3), with the shipped person model;
+    VtoError 'no hair found ...' where there is none."""
+    from vto_core.hair_locator import cached_hair_locator
+
+    return cached_hair_locator(MODELS / PERSON_SEGMENTER).locate(image, face)
 
 
 def _cut(image: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
@@ -253,23 +272,56 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     return Reference(image, region, whole, box, lips, notes, light)
 
 
+def face_and_hair(whole: np.ndarray, find_hair: bool) -> tuple[object, object]:
+    """(the largest face of `whole` or None, the hair found around it or None): read_face and, with find_hair and a
+    face, locate_hair (VtoError 'no hair found ...'). The last photo's are kept, by a hash of its pixels: the panel's
+    thumbnail finds the hair when the photo is chosen, and Match then reads it again at no cost."""
+    key = (whole.shape, whole.dtype.str, hashlib.blake2b(np.ascontiguousarray(whole).view(np.uint8),
+                                                         digest_size=16).digest())
+    if _LAST_FOUND.get("key") != key:
+        _LAST_FOUND.clear()
+        _LAST_FOUND.update(key=key, face=read_face(whole))
+    if find_hair and _LAST_FOUND["face"] is not None and "hair" not in _LAST_FOUND:
+        _LAST_FOUND["hair"] = locate_hair(whole, _LAST_FOUND["face"])
+    return _LAST_FOUND["face"], _LAST_FOUND.get("hair") if find_hair else None
+
+
+_LAST_FOUND: dict = {}
+
+
 def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
-                   neutral_light: bool = True) -> Reference:
-    """Hair as the hair encoder reads it: the crop (all hair), or with a hair mask the largest square of it
-    (vto_core.hair.hair_square); the region is the masked hair of the crop (or the whole crop).
+                   neutral_light: bool = True, find_hair: bool = True) -> Reference:
+    """Hair as the hair encoder reads it: the largest square of the hair (vto_core.hair.hair_square); the region is
+    all of the hair, for the fits. The hair is a mask where one is given, else the crop (all hair), else (find_hair)
+    the hair found around the largest face of a portrait; a picture with no face is read whole as a patch of hair,
+    unless it cannot be one (blank, noise, not a hair colour: VtoError 'no hair found ...'). find_hair=False takes
+    the whole image as hair.
     neutral_light: where the whole photo shows a face, its light is read from the skin beside the lips and taken
     out (a hair colour is the hair's under neutral light); a photo without one (a patch of hair) is read as it is."""
     from vto_core.hair import hair_square
+    from vto_core.hair_locator import patch_problem
 
     height, width = whole.shape[:2]
     box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
+    finding = find_hair and crop is None and mask is None
+    face, hair = face_and_hair(whole, finding) if neutral_light or finding else (None, None)
     notes, light = [], None
+    if finding:
+        if face is None:
+            problem = patch_problem(whole)
+            if problem:
+                raise VtoError(problem)
+            notes.append(NO_FACE_HAIR)
+        else:
+            mask, box = hair.mask, hair.box
+            notes += [hair.note] if hair.note else []
+            notes.append(f"hair found: {hair.mask.mean():.0%} of the photo")
     if neutral_light:
         try:
-            lips = locate_lips(whole)
+            lips = locate_lips(whole, face) if face is not None else None
         except VtoError:
             lips = None
-        if lips is not None and lips.how == "face":
+        if lips is not None:
             light = light_of(whole, lips.mask)
             notes.append(light.describe())
         else:
@@ -284,14 +336,16 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
                        "paint more of the hair, or crop a patch of it")
     x, y, side = square
     inner = (box[0] + x, box[1] + y, side, side)
-    return Reference(_cut(rgb, (x, y, side, side)), (rgb, mask), whole, inner, notes=notes, light=light)
+    return Reference(_cut(rgb, (x, y, side, side)), (rgb, mask), whole, inner, notes=notes, light=light, hair=hair)
 
 
 def read_reference(renderer: str, settings: dict) -> Reference:
-    """The settings' reference made ready for `renderer` (image, crop, mask; lipstick: find_lips); one-line errors."""
+    """The settings' reference made ready for `renderer` (image, crop, mask; lipstick: find_lips, hair: find_hair);
+    one-line errors."""
     whole = read_image_setting(settings)
     mask = read_mask(settings["mask_path"], whole.shape[:2]) if settings.get("mask_path") else None
     if renderer == "hair":
-        return hair_reference(whole, settings.get("crop"), mask, settings.get("neutral_light", True))
+        return hair_reference(whole, settings.get("crop"), mask, settings.get("neutral_light", True),
+                              settings.get("find_hair", True))
     return lips_reference(whole, settings.get("crop"), mask, settings.get("find_lips", True),
                           settings.get("neutral_light", True))

@@ -1,5 +1,5 @@
-"""The panel's thumbnail of the reference: the picture, the crop or the lips found outlined, in a preview collection
-(no file written)."""
+"""The panel's thumbnail of the reference: the picture, the crop, the lips or the hair found outlined, in a preview
+collection (no file written)."""
 
 from __future__ import annotations
 
@@ -9,11 +9,13 @@ import numpy as np
 
 from vto_core.errors import VtoError
 
-from .reference import absolute_path, crop_box, datablock_pixels, lips_frame, lips_reference, load_reference, read_mask
+from .reference import (absolute_path, crop_box, datablock_pixels, hair_reference, lips_frame, lips_reference,
+                        load_reference, read_mask)
 
 SIZE = 128  # pixels of the square thumbnail
 CROP_COLOUR = (1.0, 0.78, 0.1)  # the crop's outline: Blender's selection orange-yellow
 LIPS_COLOUR = (0.2, 0.9, 1.0)  # the lips found: cyan, apart from any lip colour
+HAIR_COLOUR = (0.3, 1.0, 0.3)  # the hair found: green, apart from any hair colour
 MASK_DIM = 0.35  # outside the mask, the picture at this brightness
 
 _previews = None
@@ -31,7 +33,10 @@ def source_key(props, renderer: str = "lipstick") -> tuple:
         source = ("datablock", image.name if image else "", image.is_dirty if image else False)
     else:
         source = ("file",) + stamp(props.image_path)
-    finding = renderer == "lipstick" and props.find_lips and not props.mask_path
+    if renderer == "lipstick":
+        finding = props.find_lips and not props.mask_path
+    else:
+        finding = props.find_hair and not props.mask_path and not props.use_crop
     return source, tuple(round(v, 4) for v in props.crop) if props.use_crop else None, stamp(props.mask_path), finding
 
 
@@ -50,10 +55,10 @@ def outline(canvas: np.ndarray, points: np.ndarray, colour, width: int = 2) -> N
         canvas[y, x, :3] = colour
 
 
-def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None) -> np.ndarray:
+def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None, hair=None) -> np.ndarray:
     """(SIZE, SIZE, 4) RGBA, top row first: the reference fitted and centred on grey, the mask dimmed, the crop drawn,
-    and the lips found (vto_core.lips_locator.LipsFound: their outer and inner contours, and the frame the encoder
-    reads)."""
+    the lips found (vto_core.lips_locator.LipsFound: their outer and inner contours, and the frame the encoder
+    reads) and the hair found (vto_core.hair_locator.HairFound: its outline)."""
     from vto_core.imageio import resize
 
     height, width = reference.shape[:2]
@@ -66,6 +71,10 @@ def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None) -> 
     canvas = np.full((SIZE, SIZE, 4), (0.16, 0.16, 0.16, 1.0), np.float32)
     top, left = (SIZE - h) // 2, (SIZE - w) // 2
     canvas[top:top + h, left:left + w, :3] = np.clip(picture, 0.0, 1.0)
+    if hair is not None:
+        small = resize(hair.mask[..., None].repeat(3, axis=2), h, w)[..., 0] > 0.5
+        edge = small & ~(np.roll(small, 1, 0) & np.roll(small, -1, 0) & np.roll(small, 1, 1) & np.roll(small, -1, 1))
+        canvas[top:top + h, left:left + w, :3][edge] = HAIR_COLOUR
     if lips is not None:  # the outer contour: at thumbnail size a mouth is a few pixels, the inner one would fill it
         outline(canvas, np.asarray(lips.outer, np.float64) * scale + (left, top), LIPS_COLOUR, width=1)
         if lips.how == "face":
@@ -94,8 +103,8 @@ def reference_pixels(props) -> np.ndarray:
 def icon(props, name: str, renderer: str = "lipstick") -> tuple[int, str]:
     """(the thumbnail's icon id, a note or "") or (0, why there is none); remade only when what it shows has changed.
 
-    For lipstick with Find Lips on and no mask, the lips are found as Match will find them, and outlined; the note
-    says what the locator said (e.g. which face, or that it found none)."""
+    With Find Lips (Find Hair) on and no mask (nor, for hair, a crop), the lips (the hair) are found as Match will
+    find them, and outlined; the note says what the locator said (e.g. which face, or that it found none)."""
     global _previews
     import bpy.utils.previews
 
@@ -106,14 +115,14 @@ def icon(props, name: str, renderer: str = "lipstick") -> tuple[int, str]:
         reference = reference_pixels(props)
         mask = read_mask(props.mask_path, reference.shape[:2]) if props.mask_path else None
         crop = tuple(props.crop) if props.use_crop else None
-        lips, note = None, ""
+        lips, hair, note = None, None, ""
         if key[-1]:
             try:  # as Match will find them
-                found = lips_reference(reference, crop)
-                lips, note = found.lips, " ".join(found.notes)
+                found = lips_reference(reference, crop) if renderer == "lipstick" else hair_reference(reference)
+                lips, hair, note = found.lips, found.hair, " ".join(found.notes)
             except VtoError as exc:
                 note = str(exc)
-        rgba = compose(reference, crop, mask, lips)
+        rgba = compose(reference, crop, mask, lips, hair)
     except Exception as exc:  # VtoError, or anything a broken file raises: the thumbnail only says why
         _made[name] = (key, 0, (str(exc).splitlines() or [""])[0])
         return 0, _made[name][2]

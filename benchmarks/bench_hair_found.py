@@ -1,0 +1,206 @@
+"""Hair found in whole portraits: the hair locator against hand-drawn masks, and Fast, Better and Best from the whole
+portrait (no crop, no mask) against the colour of the hand-drawn hair patch.
+
+    python -m benchmarks.bench_hair_found [--qualities fast,better,best] [--only FILE ...]
+
+Photos: benchmarks/photos/photos.json, the 18 with hair; hand-drawn hair masks: benchmarks/photos/hair_masks.json
+(benchmarks/hand_masks.py). Per photo: the IoU of the hair found with the hand mask; the CIEDE2000 between the mean
+colour of the hair found and of the hand patch (photos.json's first hair patch, as bench_real_photos reads it); the
+time to find the hair (the person model and the colour models; the face mesh apart); each quality through `vto
+match`'s own path on the whole photo, its estimate rendered on default hair regions 0-7 and its apparent colour
+against the hand patch's. Photos marked held_out are summarised apart. Also the refusals: pictures with no hair.
+Writes benchmarks/results/hair_found.md and hair_found.png (photo | hair found | Fast | Best, on default region 0).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.bench_real_photos import MODELS, PHOTOS, delta_e, load_photo, show, subject, timed_match
+from benchmarks.common import RESULTS, table
+from benchmarks.hand_masks import load_records, rasterise
+
+QUALITIES = ("fast", "better", "best")
+
+
+def finding(photo: np.ndarray) -> tuple[object, object, float, float]:
+    """(the face, the hair found or the VtoError, face ms, hair ms), each timed warm (the second of two runs)."""
+    from blender_addon.reference import locate_hair, read_face
+    from vto_core.errors import VtoError
+
+    for _ in range(2):
+        started = time.perf_counter()
+        face = read_face(photo)
+        face_ms = 1000 * (time.perf_counter() - started)
+        started = time.perf_counter()
+        try:
+            hair = locate_hair(photo, face) if face is not None else VtoError("no face")
+        except VtoError as exc:
+            hair = exc
+        hair_ms = 1000 * (time.perf_counter() - started)
+    return face, hair, face_ms, hair_ms
+
+
+def overlay(photo: np.ndarray, found: np.ndarray | None, drawn: np.ndarray) -> np.ndarray:
+    """The photo with the hair found tinted green and the hand mask's outline red."""
+    out = photo.copy()
+    if found is not None:
+        out[found] = 0.55 * out[found] + 0.45 * np.array([0.0, 1.0, 0.0])
+    edge = drawn & ~(np.roll(drawn, 1, 0) & np.roll(drawn, -1, 0) & np.roll(drawn, 1, 1) & np.roll(drawn, -1, 1))
+    out[edge] = (1.0, 0.0, 0.0)
+    return out
+
+
+def run(records: list[dict], qualities: list[str], work: Path) -> tuple[list, list, dict, list]:
+    """Rows of the finding table, rows of the estimate table, figures for the summary, the picture rows."""
+    from blender_addon.photo_fit import apparent_colour, region_renderer
+    from vto_core.errors import VtoError
+    from vto_core.imageio import write_image
+
+    model = MODELS / "hair_encoder.onnx"
+    drawn_masks = load_records()
+    found_rows, estimate_rows, pictures = [], [], []
+    figures = {"iou": [], "colour": [], "colour_drawn": [], "hair_ms": [], "face_ms": [], "mp": [], "held_out": []}
+    figures |= {f"{quality}{what}": [] for quality in qualities for what in ("", "_drawn", "_ms")}
+    for record in records:
+        photo = load_photo(record, PHOTOS.parent)
+        height, width = photo.shape[:2]
+        drawn = rasterise(drawn_masks[record["file"]], height, width)
+        x, y, w, h = record["hair_patches"][0]
+        patch_colour, drawn_colour = photo[y:y + h, x:x + w].reshape(-1, 3).mean(0), photo[drawn].mean(0)
+        face, hair, face_ms, hair_ms = finding(photo)
+        found = hair.mask > 0.5 if hasattr(hair, "mask") else None
+        iou = float((found & drawn).sum() / (found | drawn).sum()) if found is not None else 0.0
+        found_colour = photo[found].mean(0) if found is not None else None
+        colour = delta_e(found_colour, patch_colour) if found is not None else float("inf")
+        colour_drawn = delta_e(found_colour, drawn_colour) if found is not None else float("inf")
+        held = bool(record.get("held_out"))
+        for key, value in (("iou", iou), ("colour", colour), ("colour_drawn", colour_drawn), ("hair_ms", hair_ms),
+                           ("face_ms", face_ms), ("mp", height * width / 1e6), ("held_out", held)):
+            figures[key].append(value)
+        found_rows.append([subject(record), record.get("hair", "-"),
+                           f"{width}x{height}", f"{iou:.2f}" if found is not None else f"refused: {hair}",
+                           f"{colour:.1f}", f"{colour_drawn:.1f}", f"{face_ms:.0f}", f"{hair_ms:.0f}"])
+        path = work / f"{Path(record['file']).stem.replace(':', '_').replace('/', '_')}.png"
+        write_image(path, photo)
+        cells = {"photo": show(photo), "found": show(overlay(photo, found, drawn))}
+        for quality in qualities:
+            try:
+                result, ms = timed_match(model, path, quality)
+            except VtoError as exc:  # refused: counted as the largest error, shown as a grey cell
+                figures[quality].append(float("inf"))
+                figures[f"{quality}_drawn"].append(float("inf"))
+                figures[f"{quality}_ms"].append(float("nan"))
+                estimate_rows.append([subject(record), quality, f"refused: {exc}", "-", "-"])
+                continue
+            apparent = apparent_colour("hair", result["params"])["mean"]
+            error, error_drawn = delta_e(patch_colour, apparent), delta_e(drawn_colour, apparent)
+            figures[quality].append(error)
+            figures[f"{quality}_drawn"].append(error_drawn)
+            figures[f"{quality}_ms"].append(ms)
+            estimate_rows.append([subject(record), quality, f"{error:.1f}", f"{error_drawn:.1f}", f"{ms:,.0f}"])
+            cells[quality] = show(region_renderer("hair", 0)(result["params"])[0])
+        blank = np.full_like(cells["photo"], 0.16)
+        pictures.append(np.concatenate([cells.get(k, blank) for k in ("photo", "found", "fast", "best")], 1))
+        print(found_rows[-1], [row[2] for row in estimate_rows[-len(qualities):]], file=sys.stderr)
+    return found_rows, estimate_rows, figures, pictures
+
+
+def refusals(work: Path) -> list[list]:
+    """What the hair path says of pictures with no hair to find: each should be one 'no hair found' line."""
+    from blender_addon.match import match
+    from vto_core.errors import VtoError
+    from vto_core.imageio import write_image
+
+    import skimage.data
+
+    astronaut = skimage.data.astronaut().astype(np.float32) / 255
+    drawn = rasterise(load_records()["package:skimage.data.astronaut"], 512, 512)
+    bald, hat = astronaut.copy(), astronaut.copy()
+    bald[drawn] = astronaut[130:150, 200:250].reshape(-1, 3).mean(0)  # her forehead's skin over her hair
+    hat[drawn] = (0.75, 0.1, 0.1)  # a red woollen hat over it
+    records = json.loads(PHOTOS.read_text())
+    desert = next(r for r in records if "desert" in r["file"])
+    cases = {"a bald head (the astronaut's hair painted with her skin)": bald,
+             "a hat (her hair painted red)": hat,
+             "hair out of frame (the astronaut cut at her eyebrows)": astronaut[110:],
+             "no person (the Great Sandy Desert from the ISS)": load_photo(desert, PHOTOS.parent),
+             "noise": np.random.default_rng(0).random((256, 256, 3)).astype(np.float32),
+             "a blank image": np.full((256, 256, 3), 0.5, np.float32)}
+    rows = []
+    for name, image in cases.items():
+        path = work / "refusal.png"
+        write_image(path, image)
+        try:
+            result = match(str(MODELS / "hair_encoder.onnx"), str(path))
+            rows.append([name, f"NOT refused: {'; '.join(result['notes'])}"])
+        except VtoError as exc:
+            rows.append([name, str(exc)])
+    return rows
+
+
+def summary(figures: dict, qualities: list[str]) -> list[list]:
+    """Medians over all photos, the held-out six and the twelve tuned on; colours 'against the patch (the mask)'."""
+    held = np.array(figures["held_out"])
+    rows = []
+    for label, keep in (("all 18", np.ones_like(held)), ("held-out 6", held), ("tuning 12", ~held)):
+        def median(key: str) -> float:
+            return float(np.median(np.array(figures[key])[keep]))
+
+        iou = np.array(figures["iou"])[keep]
+        row = [label, f"{(iou >= 0.6).sum()}/{keep.sum()}", f"{np.median(iou):.2f}",
+               f"{median('colour'):.1f} ({median('colour_drawn'):.1f})"]
+        row += [f"{median(q):.1f} ({median(q + '_drawn'):.1f}), "
+                f"{np.nanmedian(np.array(figures[q + '_ms'])[keep]):,.0f} ms" for q in qualities]
+        rows.append(row)
+    return rows
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run and write benchmarks/results/hair_found.md and .png."""
+    from vto_core.imageio import write_image
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--qualities", default="fast,better,best")
+    parser.add_argument("--only", nargs="*", default=None, help="photo files to run (default: all with hair)")
+    args = parser.parse_args(argv)
+    qualities = [q for q in args.qualities.split(",") if q]
+    records = [r for r in json.loads(PHOTOS.read_text()) if r.get("hair_patches")]
+    if args.only:
+        records = [r for r in records if any(o in r["file"] for o in args.only)]
+    with tempfile.TemporaryDirectory() as folder:
+        found_rows, estimate_rows, figures, pictures = run(records, qualities, Path(folder))
+        refused = refusals(Path(folder))
+    per_mp = np.array(figures["hair_ms"]) / np.maximum(np.array(figures["mp"]), 1e-6)
+    text = "\n\n".join([
+        "# Hair found in whole portraits\n\n" + __doc__.split("\n\n", 2)[2].strip(),
+        "## Summary (medians; CIEDE2000 against the hand patch's colour, and in brackets the hand mask's)\n\n"
+        + table(["photos", "IoU >= 0.6", "IoU", "hair found"] + [f"{q.title()} from the whole portrait"
+                                                                for q in qualities], summary(figures, qualities)),
+        f"Finding the hair (the face mesh apart): median {np.median(figures['hair_ms']):.0f} ms, largest "
+        f"{max(figures['hair_ms']):.0f} ms on photos of {min(figures['mp']):.2f}-{max(figures['mp']):.2f} MP "
+        f"(median {np.median(per_mp):.0f} ms per MP); the face reader: median {np.median(figures['face_ms']):.0f} ms.",
+        "## Hair found\n\n" + table(["photo", "hair", "size", "IoU with the hand mask", "found vs hand patch",
+                                     "found vs hand mask", "face ms", "hair ms"], found_rows),
+        "## From the whole portrait (CIEDE2000 of the estimate's apparent colour against the hand patch's)\n\n"
+        + table(["photo", "quality", "against the hand patch", "against the hand mask's mean", "ms"],
+                estimate_rows),
+        "## Refusals\n\n" + table(["picture", "what the hair path says"], refused),
+        "Picture: `hair_found.png`, a row per photo: the photo | the hair found (green; the hand mask's outline red) "
+        "| Fast | Best, each estimate on default hair region 0.",
+    ])
+    (RESULTS / "hair_found.md").write_text(text + "\n")
+    if pictures:
+        write_image(RESULTS / "hair_found.png", np.concatenate(pictures, 0))
+    print(text)
+
+
+if __name__ == "__main__":
+    main()

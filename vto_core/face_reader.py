@@ -1,0 +1,397 @@
+"""Read a face in a photo: MediaPipe's BlazeFace detector and 468-point face mesh on onnxruntime, shared by the lips
+(vto_core.lips_locator) and the hair (vto_core.hair_locator).
+
+The models are blender_addon/models/face_detector.onnx and face_landmarks.onnx (model card: face_locator.md, made by
+scripts/convert_face_models.py). numpy only at import; onnxruntime is imported when a FaceReader is made. All the
+resampling is numpy (strided block means, then bilinear sampling through an affine map), so this module runs inside
+Blender's extension, which has neither OpenImageIO's resize nor scipy.
+
+Coordinates: x, y in pixels from the top-left corner of the image; pixel (i, j) covers [i, i+1) x [j, j+1), so its
+centre is at (i + 0.5, j + 0.5).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import VtoError
+from .inference import cpu_session
+
+DETECTOR_SIZE = 128  # BlazeFace short range: (1, 3, 128, 128) in [-1, 1]
+MESH_SIZE = 192  # face mesh: (1, 3, 192, 192) in [0, 1]
+ANCHOR_STRIDES = (8, 16, 16, 16)  # MediaPipe's SSD anchor options for face_detection_short_range
+MIN_DETECTION_SCORE = 0.5
+NMS_OVERLAP = 0.3  # boxes overlapping more (IoU) merge into one face (weighted NMS, as MediaPipe)
+RAW_SCORE_LIMIT = 80.0
+# The mesh's face-presence probability (sigmoid of its logit output) below which a detection is no face. MediaPipe
+# keeps 0.5; here real faces score >= 0.99 and a cat's face 0.55 (face_locator.md).
+MIN_FACE_SCORE = 0.75
+ROI_SCALE = 1.5  # the mesh reads the detection box enlarged this much, made square on its longer side
+RIGHT_EYE_CORNER, LEFT_EYE_CORNER = 33, 263  # mesh landmarks: the outer eye corners, image left then right
+MAX_FACES_CHECKED = 8  # detections the mesh looks at, largest first (each ~3 ms)
+RIGHT_EYE, LEFT_EYE = 0, 1  # detector keypoints: the subject's right eye (image left), left eye; then nose, mouth...
+TILE_GRIDS = (2, 3)  # the second detector pass, when the whole image shows no face: 2 x 2, then 3 x 3 squares
+MIN_TILED_SIDE = 256  # px: smaller images hold no face too small for the whole-image pass
+SMALL_FACE = 0.15  # a face box under this share of the image's longer side sends the detector over the squares too
+TAPS = 4  # strided samples per block side when a large image is reduced (TAPS**2 per output pixel)
+
+@dataclass
+class Detection:
+    """One face from the detector, in image pixels."""
+
+    score: float
+    box: np.ndarray  # (4,) xmin, ymin, xmax, ymax
+    keypoints: np.ndarray  # (6, 2) x, y: right eye, left eye, nose tip, mouth, right and left tragion
+
+    @property
+    def area(self) -> float:
+        """The box's area in pixels."""
+        return float((self.box[2] - self.box[0]) * (self.box[3] - self.box[1]))
+
+    @property
+    def side(self) -> float:
+        """The box's longer side in pixels."""
+        return float(max(self.box[2] - self.box[0], self.box[3] - self.box[1]))
+
+
+@dataclass
+class FaceRead:
+    """The largest face FaceReader.read found in an image."""
+
+    landmarks: np.ndarray  # (468, 2) float32 the face mesh in image pixels
+    score: float  # the mesh's face probability
+    faces: int  # faces found (detections the face mesh confirms)
+    box: tuple[float, float, float, float]  # x, y, w, h of the detector's box of the face
+
+    @property
+    def note(self) -> str:
+        """'' or a sentence for the user when there were several faces."""
+        return f"{self.faces} faces found: the largest is used" if self.faces > 1 else ""
+
+
+def sigmoid(logits: np.ndarray) -> np.ndarray:
+    """Logistic function of logits clipped to +-RAW_SCORE_LIMIT (no overflow)."""
+    return 1.0 / (1.0 + np.exp(-np.clip(logits, -RAW_SCORE_LIMIT, RAW_SCORE_LIMIT)))
+
+
+def ssd_anchors(size: int = DETECTOR_SIZE, strides: tuple[int, ...] = ANCHOR_STRIDES) -> np.ndarray:
+    """(896, 2) anchor centres x, y in [0, 1], MediaPipe's SsdAnchorsCalculator order (fixed size 1, aspect 1, two
+    anchors per layer, layers of equal stride sharing one grid)."""
+    anchors = []
+    for stride in sorted(set(strides)):
+        per_cell = 2 * strides.count(stride)
+        cells = size // stride
+        centres = (np.arange(cells, dtype=np.float32) + 0.5) / cells
+        grid_y, grid_x = np.meshgrid(centres, centres, indexing="ij")
+        anchors.append(np.repeat(np.stack([grid_x.ravel(), grid_y.ravel()], 1), per_cell, axis=0))
+    return np.concatenate(anchors)
+
+
+ANCHORS = ssd_anchors()
+
+
+def decode_detections(regressors: np.ndarray, logits: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The detector's raw outputs (896, 16), (896,) -> scores (896,), boxes (896, 4) xmin ymin xmax ymax and
+    keypoints (896, 6, 2), all in [0, 1] of the detector's input square."""
+    raw = regressors.reshape(-1, 8, 2).astype(np.float64) / DETECTOR_SIZE
+    centre, half = raw[:, 0] + ANCHORS, raw[:, 1] / 2
+    boxes = np.concatenate([centre - half, centre + half], axis=1)
+    return sigmoid(logits.astype(np.float64)), boxes, raw[:, 2:] + ANCHORS[:, None]
+
+
+def box_area(boxes: np.ndarray) -> np.ndarray:
+    """Areas of boxes (..., 4) xmin ymin xmax ymax -> (...); 0 for empty or inverted boxes."""
+    return np.clip(boxes[..., 2] - boxes[..., 0], 0, None) * np.clip(boxes[..., 3] - boxes[..., 1], 0, None)
+
+
+def box_overlap(box: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """IoU of one box (4,) with boxes (N, 4), all xmin ymin xmax ymax -> (N,); 0 where the union is empty."""
+    width = np.clip(np.minimum(box[2], boxes[:, 2]) - np.maximum(box[0], boxes[:, 0]), 0, None)
+    height = np.clip(np.minimum(box[3], boxes[:, 3]) - np.maximum(box[1], boxes[:, 1]), 0, None)
+    inter = width * height
+    union = box_area(box) + box_area(boxes) - inter
+    return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
+
+
+def weighted_nms(scores: np.ndarray, boxes: np.ndarray, keypoints: np.ndarray,
+                 min_score: float = MIN_DETECTION_SCORE, overlap: float = NMS_OVERLAP) -> list[Detection]:
+    """MediaPipe's weighted non-maximum suppression: the best box and all it overlaps merge, weighted by score.
+
+    scores (N,), boxes (N, 4), keypoints (N, 6, 2) -> detections, best first (coordinates as given)."""
+    keep = (scores > min_score) & (boxes[:, 2] > boxes[:, 0]) & (boxes[:, 3] > boxes[:, 1])
+    order = np.flatnonzero(keep)[np.argsort(-scores[keep], kind="stable")]
+    detections = []
+    while order.size:
+        best = order[0]
+        close = box_overlap(boxes[best], boxes[order]) > overlap
+        members, order = order[close | (order == best)], order[~close & (order != best)]
+        weights = scores[members] / scores[members].sum()
+        detections.append(Detection(float(scores[best]), weights @ boxes[members],
+                                    np.tensordot(weights, keypoints[members], axes=1)))
+    return detections
+
+
+def clean(image: np.ndarray) -> np.ndarray:
+    """(..., C) -> float32 in [0, 1]: NaN and -inf as 0, +inf as 1, HDR values clipped."""
+    return np.clip(np.nan_to_num(image, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0).astype(np.float32, copy=False)
+
+
+def reduce(image: np.ndarray, factor: int) -> np.ndarray:
+    """(H, W, C) -> (H // factor, W // factor, C) float32 cleaned: each block of factor x factor pixels as the mean of
+    up to TAPS x TAPS evenly spread pixels of it (the exact block mean when factor <= TAPS). The remainder rows and
+    columns at the bottom and right are dropped, so reduced pixel i covers source pixels [i * factor, (i+1) * factor).
+    The cost grows with the output, not the input: a 12-megapixel photo reduces as fast as a small one."""
+    if factor <= 1:
+        return clean(image)
+    rows, cols = image.shape[0] // factor, image.shape[1] // factor
+    taps = min(factor, TAPS)
+    offsets = np.unique(((np.arange(taps) + 0.5) * factor / taps).astype(int))
+    total = np.zeros((rows, cols, image.shape[2]), np.float32)
+    for dy in offsets:
+        for dx in offsets:
+            total += clean(image[dy::factor, dx::factor][:rows, :cols])
+    return total / np.float32(offsets.size ** 2)
+
+
+def sample_bilinear(image: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """(h, w, C) sampled at continuous points xs, ys (...) (pixel i's centre at i + 0.5) -> (C, ...) float32,
+    channels first; black (0) outside the image, blending into it over the border pixel."""
+    height, width, channels = image.shape
+    # A border of zeros: every neighbour outside the image reads 0 once its index is clipped into the border.
+    padded = np.zeros((channels, height + 2, width + 2), np.float32)
+    padded[:, 1:-1, 1:-1] = image.transpose(2, 0, 1)
+    flat = padded.reshape(channels, -1)
+    fx = xs.astype(np.float32).ravel() + np.float32(0.5)  # coordinates in the padded image's pixel-index space
+    fy = ys.astype(np.float32).ravel() + np.float32(0.5)
+    x0, y0 = np.floor(fx), np.floor(fy)
+    wx, wy = fx - x0, fy - y0
+    left, right = (np.clip(x0 + i, 0, width + 1).astype(np.intp) for i in (0, 1))
+    top, bottom = (np.clip(y0 + i, 0, height + 1).astype(np.intp) * (width + 2) for i in (0, 1))
+    upper = np.take(flat, top + left, axis=1) * (1 - wx) + np.take(flat, top + right, axis=1) * wx
+    lower = np.take(flat, bottom + left, axis=1) * (1 - wx) + np.take(flat, bottom + right, axis=1) * wx
+    return (upper * (1 - wy) + lower * wy).reshape((channels,) + xs.shape)
+
+
+def warp(image: np.ndarray, matrix: np.ndarray, size: int) -> np.ndarray:
+    """(H, W, 3) seen through an affine map -> (3, size, size) float32 in [0, 1], channels first.
+
+    matrix (2, 3) maps output coordinates (u, v) (pixel centres at +0.5) to image coordinates. The part of the image
+    that the output covers is first reduced (`reduce`) so that the bilinear step shrinks by less than 2: cheap and
+    free of aliasing at any image size."""
+    scale = math.sqrt(abs(np.linalg.det(matrix[:, :2])))
+    factor = max(1, int(scale))
+    corners = matrix @ np.array([[0, size, 0, size], [0, 0, size, size], [1, 1, 1, 1]], np.float64)
+    x0, y0 = (max(0, int(math.floor(v)) - factor) for v in corners.min(axis=1))
+    x1, y1 = (min(n, int(math.ceil(v)) + factor) for v, n in zip(corners.max(axis=1), image.shape[1::-1]))
+    if x1 - x0 < factor or y1 - y0 < factor:  # the output lies wholly outside the image
+        return np.zeros((3, size, size), np.float32)
+    region = reduce(image[y0:y1, x0:x1], factor)
+    centres = np.arange(size, dtype=np.float64) + 0.5
+    u, v = np.meshgrid(centres, centres)
+    xs = (matrix[0, 0] * u + matrix[0, 1] * v + matrix[0, 2] - x0) / factor
+    ys = (matrix[1, 0] * u + matrix[1, 1] * v + matrix[1, 2] - y0) / factor
+    return np.clip(sample_bilinear(region, xs, ys), 0.0, 1.0)
+
+
+def letterbox_matrix(height: int, width: int, size: int = DETECTOR_SIZE) -> np.ndarray:
+    """(2, 3) map from a size x size square to the image, letterboxed: the image's longer side spans the square,
+    centred, the rest black (as MediaPipe pads the detector's input)."""
+    side = max(height, width)
+    return np.array([[side / size, 0.0, (width - side) / 2], [0.0, side / size, (height - side) / 2]])
+
+
+def square_matrix(centre: np.ndarray, side: float, angle: float, size: int) -> np.ndarray:
+    """(2, 3) map from a size x size square to a square of `side` px centred on `centre`, turned by `angle` radians
+    (clockwise on screen, y pointing down), as MediaPipe's rotated region of interest."""
+    cos, sin = math.cos(angle) * side / size, math.sin(angle) * side / size
+    rotation = np.array([[cos, -sin], [sin, cos]])
+    return np.concatenate([rotation, (centre - rotation @ np.array([size / 2, size / 2]))[:, None]], axis=1)
+
+
+def apply_matrix(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(2, 3) affine map applied to points (..., 2) -> (..., 2)."""
+    return points @ matrix[:, :2].T + matrix[:, 2]
+
+
+def face_region(detection: Detection) -> tuple[np.ndarray, float, float]:
+    """A detection -> the mesh's region: centre (2,), side in px, angle in radians (MediaPipe's
+    DetectionsToRects with the eyes as rotation keypoints, then RectTransformation with scale 1.5, square long)."""
+    box = detection.box
+    centre = np.array([(box[0] + box[2]) / 2, (box[1] + box[3]) / 2])
+    side = ROI_SCALE * max(box[2] - box[0], box[3] - box[1])
+    (x0, y0), (x1, y1) = detection.keypoints[RIGHT_EYE], detection.keypoints[LEFT_EYE]
+    angle = -math.atan2(y0 - y1, x1 - x0)
+    return centre, float(side), angle - 2 * math.pi * math.floor((angle + math.pi) / (2 * math.pi))
+
+
+def landmarks_region(landmarks: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """The mesh's (468, 2) landmarks -> the region for a second mesh pass: centre (2,), side px, angle rad (as
+    MediaPipe's landmarks-to-ROI: turned by the line through the outer eye corners 33 and 263, the landmarks' box in
+    that frame, enlarged 1.5x, square on its longer side)."""
+    (x0, y0), (x1, y1) = landmarks[RIGHT_EYE_CORNER], landmarks[LEFT_EYE_CORNER]
+    angle = -math.atan2(float(y0 - y1), float(x1 - x0))
+    cos, sin = math.cos(angle), math.sin(angle)
+    upright = landmarks.astype(np.float64) @ np.array([[cos, -sin], [sin, cos]])  # rotated by -angle
+    low, high = upright.min(axis=0), upright.max(axis=0)
+    centre = np.array([[cos, -sin], [sin, cos]]) @ ((low + high) / 2)  # back by +angle
+    return centre, float(ROI_SCALE * (high - low).max()), angle
+
+
+def polygon_mask(polygon: np.ndarray, x0: int, y0: int, width: int, height: int) -> np.ndarray:
+    """(height, width) bool: the pixel centres of the box (x0, y0, width, height) inside the polygon (K, 2) by the
+    even-odd rule."""
+    start, end = polygon.astype(np.float64), np.roll(polygon, -1, axis=0).astype(np.float64)
+    ys = y0 + np.arange(height) + 0.5
+    xs = x0 + np.arange(width) + 0.5
+    # Per edge and row: does the edge cross the row's line, and where (x). Edges along a row never cross it.
+    straddles = (start[:, 1:2] > ys) != (end[:, 1:2] > ys)
+    rise = np.where(end[:, 1:2] != start[:, 1:2], end[:, 1:2] - start[:, 1:2], 1.0)
+    cross_x = start[:, 0:1] + (ys - start[:, 1:2]) * (end[:, 0:1] - start[:, 0:1]) / rise
+    crossings = (straddles[:, :, None] & (xs < cross_x[:, :, None])).sum(axis=0)
+    return crossings % 2 == 1
+
+
+def tight_box(mask: np.ndarray) -> tuple[int, int, int, int]:
+    """x, y, w, h of the non-zero pixels of mask (H, W); (0, 0, 0, 0) when there are none."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if not rows.size:
+        return (0, 0, 0, 0)
+    return (int(cols[0]), int(rows[0]), int(cols[-1] - cols[0] + 1), int(rows[-1] - rows[0] + 1))
+
+
+def as_rgb(image: np.ndarray) -> np.ndarray:
+    """(H, W), (H, W, 1), (H, W, 3) or (H, W, 4) -> (H, W, 3), integers scaled to [0, 1], a view where it can be;
+    VtoError for other shapes."""
+    image = np.asarray(image)
+    if image.dtype.kind in "ui":  # 8- or 16-bit pixels
+        image = image.astype(np.float32) / np.float32(np.iinfo(image.dtype).max)
+    if image.ndim == 2:
+        image = image[..., None]
+    if image.ndim != 3 or image.shape[2] not in (1, 3, 4) or image.shape[0] < 1 or image.shape[1] < 1:
+        raise VtoError(f"expected an (H, W, 3) image, got shape {image.shape}")
+    if image.shape[2] == 1:
+        return np.repeat(image, 3, axis=2)
+    return image[..., :3]
+
+
+class FaceReader:
+    """The face detector and mesh, loaded once; read() finds the largest face of one image and its 468 landmarks."""
+
+    def __init__(self, detector_path: str | Path, landmarks_path: str | Path, threads: int = 1, refine: bool = True):
+        """refine: a second mesh pass on the region the first pass's landmarks give (MediaPipe's tracking step);
+        it keeps faces turned 45-90 degrees within ~2 px where the detector's eye keypoints alone leave ~6 px."""
+        self.refine = refine
+        self.detector = cpu_session(detector_path, threads, "face model")
+        self.mesh = cpu_session(landmarks_path, threads, "face model")
+        self.detector_input = self.detector.get_inputs()[0].name
+        self.mesh_input = self.mesh.get_inputs()[0].name
+
+    def detect(self, image: np.ndarray, matrix: np.ndarray | None = None) -> list[Detection]:
+        """Faces in (H, W, 3) seen through `matrix` (2, 3) (a square of the image mapped to the detector's input;
+        default the whole image letterboxed), largest first, in image pixels."""
+        matrix = letterbox_matrix(*image.shape[:2]) if matrix is None else matrix
+        tensor = warp(image, matrix, DETECTOR_SIZE)[None] * np.float32(2) - np.float32(1)
+        regressors, logits = self.detector.run(None, {self.detector_input: tensor})
+        scores, boxes, keypoints = decode_detections(regressors[0], logits[0, :, 0])
+        to_pixels = matrix.copy()
+        to_pixels[:, :2] *= DETECTOR_SIZE  # the detections are in [0, 1] of the square
+        found = []
+        for detection in weighted_nms(scores, boxes, keypoints):
+            corners = apply_matrix(to_pixels, detection.box.reshape(2, 2)).ravel()
+            found.append(Detection(detection.score, corners, apply_matrix(to_pixels, detection.keypoints)))
+        return sorted(found, key=lambda d: -d.area)
+
+    def detect_tiles(self, image: np.ndarray, found: list[Detection] = ()) -> list[Detection]:
+        """Faces too small for the whole-image pass: the detector on overlapping squares of the letterboxed image
+        (2 x 2 of 2/3 its side, then 3 x 3 of 1/2), merged across squares and with `found` (the whole-image pass's);
+        largest first, in image pixels."""
+        whole = letterbox_matrix(*image.shape[:2])
+        found = list(found)
+        for grid in TILE_GRIDS:
+            side = 2.0 / (grid + 1)  # share of the letterboxed square; neighbours overlap by half a tile
+            for row in range(grid):
+                for col in range(grid):
+                    tile = whole.copy()
+                    tile[:, :2] *= side
+                    tile[:, 2] = apply_matrix(whole, np.array([col, row]) * side / 2 * DETECTOR_SIZE)
+                    found += self.detect(image, tile)
+        if not found:
+            return []
+        merged = weighted_nms(np.array([d.score for d in found]), np.array([d.box for d in found]),
+                              np.array([d.keypoints for d in found]), min_score=0.0)
+        return sorted(merged, key=lambda d: -d.area)
+
+    def accepted_faces(self, image: np.ndarray, faces: list[Detection]) -> list[tuple[Detection, np.ndarray, float]]:
+        """The detections (largest first; at most MAX_FACES_CHECKED) that the mesh takes for faces, each with its
+        (468, 2) landmarks in image pixels and its face probability."""
+        accepted = []
+        for detection in faces[:MAX_FACES_CHECKED]:
+            landmarks, score = self.landmarks(image, detection)
+            if score >= MIN_FACE_SCORE:
+                accepted.append((detection, landmarks, score))
+        return accepted
+
+    def landmarks(self, image: np.ndarray, detection: Detection) -> tuple[np.ndarray, float]:
+        """(H, W, 3) and a face -> the mesh's (468, 2) landmarks in image pixels and its face probability."""
+        return self.mesh_landmarks(image, *face_region(detection))
+
+    def mesh_landmarks(self, image: np.ndarray, centre: np.ndarray, side: float, angle: float
+                       ) -> tuple[np.ndarray, float]:
+        """The mesh on the square region (centre (2,), side px, angle rad) of (H, W, 3) -> (468, 2) landmarks in
+        image pixels and the face probability."""
+        matrix = square_matrix(centre, side, angle, MESH_SIZE)
+        points, logit = self.mesh.run(None, {self.mesh_input: warp(image, matrix, MESH_SIZE)[None]})
+        points = points.reshape(-1, 3)[:, :2].astype(np.float64)
+        return apply_matrix(matrix, points).astype(np.float32), float(sigmoid(np.float64(logit.ravel()[0])))
+
+    def read(self, image: np.ndarray) -> FaceRead | None:
+        """(H, W, 3) display sRGB (any size; NaN, inf and HDR values are cleaned; (H, W), (H, W, 4) and integer
+        pixels taken too) -> the largest face the mesh accepts, or None.
+
+        The detector runs on the whole image, and again on overlapping squares when that finds no face or only a small
+        one; the mesh checks each detection (largest first) and reads the largest face it accepts, twice (the second
+        time on the region its first landmarks give)."""
+        image = as_rgb(image)
+        height, width = image.shape[:2]
+        detections = self.detect(image)
+        faces = self.accepted_faces(image, detections)
+        if max(height, width) >= MIN_TILED_SIDE and (not faces or faces[0][0].side < SMALL_FACE * max(height, width)):
+            # No face, or a small one: a group or full-length photo, whose other faces the whole-image pass misses.
+            tiled = self.accepted_faces(image, self.detect_tiles(image, detections))
+            faces = tiled if len(tiled) >= len(faces) else faces
+        if not faces:
+            return None
+        detection, landmarks, score = faces[0]
+        if self.refine:
+            refined, refined_score = self.mesh_landmarks(image, *landmarks_region(landmarks))
+            if refined_score >= MIN_FACE_SCORE:
+                landmarks, score = refined, refined_score
+        xmin, ymin, xmax, ymax = (float(v) for v in detection.box)
+        return FaceRead(landmarks, score, len(faces), (xmin, ymin, xmax - xmin, ymax - ymin))
+
+
+_READERS: dict[tuple, FaceReader] = {}
+
+
+def cached_reader(detector_path: str | Path, landmarks_path: str | Path) -> FaceReader:
+    """One FaceReader per pair of model files, made on first use and reused while neither file changes (keyed by
+    resolved path, mtime and size, as vto_core.inference.cached_session)."""
+    key = []
+    for path in (detector_path, landmarks_path):
+        path = Path(path).expanduser().resolve()
+        if not path.is_file():
+            raise VtoError(f"no face model at {path}")
+        stat = path.stat()
+        key.append((str(path), stat.st_mtime_ns, stat.st_size))
+    key = tuple(key)
+    reader = _READERS.get(key)
+    if reader is None:
+        reader = FaceReader(detector_path, landmarks_path)
+        for stale in [k for k in _READERS if (k[0][0], k[1][0]) == (key[0][0], key[1][0])]:
+            del _READERS[stale]
+        _READERS[key] = reader
+    return reader

@@ -1,0 +1,348 @@
+"""Find the hair in a portrait: the person (MediaPipe's selfie segmentation on onnxruntime) less the face, grown from a
+seed above the forehead through the pixels whose colour is the seed's rather than the skin's, the clothes' or the
+background's (a Gaussian each in CIELAB, fitted on this photo).
+
+The model is blender_addon/models/person_segmenter.onnx (model card: person_segmenter.md, made by
+scripts/convert_selfie_model.py). The face comes from vto_core.face_reader. numpy only at import (onnxruntime when a
+HairLocator is made), and no scipy, so this runs inside Blender's extension. Coordinates as in face_reader.
+
+All the work is done on the head's region at WORK_FACE_HEIGHT px per face height, then the hair's probability is
+sampled back onto the photo's pixels of that region, so the cost does not grow with the photo.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .colour import srgb_to_lab
+from .errors import VtoError
+from .face_reader import FaceRead, as_rgb, polygon_mask, reduce, sample_bilinear, tight_box, warp
+from .inference import cpu_session
+
+SEGMENTER_SIZE = 256  # selfie segmentation: (1, 3, 256, 256) display RGB in [0, 1] -> (1, 1, 256, 256) person
+# MediaPipe's FACEMESH_FACE_OVAL, in order around the face; 10 is the top of the forehead, 152 the chin.
+FACE_OVAL = [10, 338, 297, 332, 284, 251, 389, 356, 454, 323, 361, 288, 397, 365, 379, 378, 400, 377, 152, 148, 176,
+             149, 150, 136, 172, 58, 132, 93, 234, 127, 162, 21, 54, 103, 67, 109]
+FOREHEAD, CHIN, RIGHT_CHEEK, LEFT_CHEEK = 10, 152, 234, 454
+# The head's region, in face heights (forehead landmark to chin) up and down and face widths to each side of the
+# face's centre: long hair falls past the chin to the shoulders.
+REGION_UP, REGION_DOWN, REGION_SIDE = 1.0, 1.4, 1.6
+WORK_FACE_HEIGHT = 56  # px per face height where the hair is found
+# The seed: above the forehead landmark (which sits 0.1-0.25 face heights below the hairline) by this many face
+# heights, within this many face widths of the face's centre line.
+SEED_UP = (0.2, 0.38)
+SEED_HALF_WIDTH = 0.3
+# The clothes' samples, face heights below the chin, within SEED_HALF_WIDTH of the centre line: the collar, the chest.
+CLOTHES_BELOW = ((0.3, 0.6), (0.8, 2.0))
+NECK_HALF_WIDTH = 0.4  # face widths: below the chin, hair is looked for only this far or further from the centre line
+PERSON, BACKGROUND = 0.5, 0.1  # segmenter probabilities: the person at and above; the background below
+HAIR_CANDIDATE = 0.25  # hair may reach where the person probability is this low (fine strands against the backdrop)
+MIN_SEED_SHARE = 0.25  # of the seed band that must be the person, in frame
+MIN_HAIR_SKIN_DISTANCE = 10.0  # CIELAB distance of the seed's median from the skin's: nearer is a bald head
+# Hair colours: the hair patches of the 12 tuning portraits have chroma 2-29, the 22 hair presets (fashion colours
+# included: teal, lilac, violet) 0-25; a desert seen from orbit has 38-44, an orange suit 70, a red hat 60+. A seed or
+# a patch more vivid than this is not hair.
+MAX_HAIR_CHROMA = 35.0
+# A picture with no face is a patch of hair when it is not blank (std of its grey over BLANK_STD), not noise (the grey
+# of neighbouring pixels correlates at least MIN_NEIGHBOUR_CORRELATION: hair patches 0.64-0.99, white noise 0.01) and
+# its median is a hair colour.
+BLANK_STD = 0.005
+MIN_NEIGHBOUR_CORRELATION = 0.4
+PATCH_SIZE = 256  # px: the longer side a picture is reduced to for the patch test
+MIN_HAIR_SHARE = 0.08  # of the face oval's area: less found hair is no hair
+LAB_FLOOR = np.diag([4.0, 1.0, 1.0])  # variance floor of each colour model (L*, a*, b*), so none is degenerate
+# The hair's floor is wider and grows with the hair's lightness and chroma (shading scales them): a seed of lit hair
+# must still take in the same hair in shade, whose colour differs more than any seed shows.
+HAIR_SPREAD = 0.35
+GROW_ROUNDS = 3  # hair models refitted on the hair found, then the hair found again
+
+
+@dataclass
+class HairFound:
+    """What HairLocator.locate found in a portrait."""
+
+    mask: np.ndarray  # (H, W) float32 0/1: the hair
+    box: tuple[int, int, int, int]  # x, y, w, h of the mask's tight box
+    faces: int  # faces found; the largest face's hair is the one found
+    note: str  # "" or one sentence for the user
+
+
+@dataclass
+class Gaussian:
+    """A colour model: mean (3,), inverse covariance (3, 3) and log-determinant, in CIELAB."""
+
+    mean: np.ndarray
+    precision: np.ndarray
+    log_det: float
+
+    @classmethod
+    def fit(cls, lab: np.ndarray, floor: np.ndarray = LAB_FLOOR) -> Gaussian | None:
+        """(N, 3) -> the model, its covariance widened by `floor`; None for fewer than 8 samples."""
+        if len(lab) < 8:
+            return None
+        covariance = np.cov(lab, rowvar=False) + floor
+        return cls(lab.mean(axis=0), np.linalg.inv(covariance), float(np.linalg.slogdet(covariance)[1]))
+
+    def log_likelihood(self, lab: np.ndarray) -> np.ndarray:
+        """(..., 3) -> (...) log density up to a shared constant."""
+        delta = lab - self.mean
+        return -0.5 * (((delta @ self.precision) * delta).sum(axis=-1) + self.log_det)
+
+
+class HairLocator:
+    """The person segmenter, loaded once; locate() finds the hair of the largest face's person."""
+
+    def __init__(self, segmenter_path: str | Path, threads: int = 1):
+        self.segmenter = cpu_session(segmenter_path, threads, "person model")
+        self.segmenter_input = self.segmenter.get_inputs()[0].name
+
+    def person(self, image: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+        """(SEGMENTER_SIZE, SEGMENTER_SIZE) person probability of the square that `matrix` (2, 3) maps from the model's
+        input onto (H, W, 3)."""
+        (probability,) = self.segmenter.run(None, {self.segmenter_input: warp(image, matrix, SEGMENTER_SIZE)[None]})
+        return np.nan_to_num(probability[0, 0])
+
+    def locate(self, image: np.ndarray, face: FaceRead) -> HairFound:
+        """(H, W, 3) display sRGB and its largest face (FaceReader.read) -> the hair; VtoError 'no hair found ...' for
+        a bald head, a hat, hair out of frame, or too little hair to read."""
+        image = as_rgb(image)
+        height, width = image.shape[:2]
+        frame = HeadFrame(face.landmarks, height, width)
+        if frame.box[2] < 4 or frame.box[3] < 4:
+            raise VtoError("no hair found: the head is out of frame")
+        rgb = frame.sample(image)
+        person = frame.sample_person(self.person(image, frame.segmenter_matrix()))
+        lab = srgb_to_lab(rgb).astype(np.float64)
+        oval = frame.polygon(face.landmarks[FACE_OVAL])
+        seed = frame.seed() & (person >= PERSON) & ~oval
+        if seed.sum() < MIN_SEED_SHARE * frame.seed_area():
+            raise VtoError("no hair found: the top of the head is out of frame or not part of the person")
+        models = colour_models(lab, oval, person, frame.clothes())
+        hair_seed = lab[seed]
+        median = np.median(hair_seed, axis=0)
+        if "skin" in models and np.linalg.norm(median - models["skin"].mean) < MIN_HAIR_SKIN_DISTANCE:
+            raise VtoError("no hair found: the head above the face is the colour of the skin (bald?)")
+        if not is_hair_colour(median):
+            raise VtoError("no hair found: what covers the head is not a hair colour (a hat?)")
+        candidates = (person >= HAIR_CANDIDATE) & ~oval & ~frame.under_chin()
+        hair = seed
+        for _ in range(GROW_ROUNDS):
+            parts = split_by_lightness(lab[hair])
+            if not parts:
+                break
+            margin = hair_margin(lab, parts, models)
+            hair = grow(seed & (margin > 0), candidates & (margin > 0))
+        score = box_blur(np.where(hair, 1.0, 0.0))
+        mask = frame.to_image(score)
+        if mask.sum() < MIN_HAIR_SHARE * frame.oval_area(face.landmarks[FACE_OVAL]):
+            raise VtoError("no hair found: too little hair beside the face to read (bald, or a hat?)")
+        return HairFound(mask, tight_box(mask), face.faces, face.note)
+
+
+class HeadFrame:
+    """The head's region of a photo and its work grid: an axis-aligned box around the face, sampled at
+    WORK_FACE_HEIGHT px per face height."""
+
+    def __init__(self, landmarks: np.ndarray, height: int, width: int):
+        self.landmarks = landmarks.astype(np.float64)
+        self.shape = (height, width)
+        top, chin = self.landmarks[FOREHEAD], self.landmarks[CHIN]
+        self.face_height = max(float(np.linalg.norm(top - chin)), 1.0)
+        self.up = (top - chin) / self.face_height
+        self.right = np.array([-self.up[1], self.up[0]])  # image right when the face is upright
+        self.face_width = max(float(np.linalg.norm(self.landmarks[LEFT_CHEEK] - self.landmarks[RIGHT_CHEEK])), 1.0)
+        self.centre = (top + chin) / 2
+        corners = [self.centre + self.up * (up * self.face_height) + self.right * (side * self.face_width)
+                   for up in (0.5 + REGION_UP, -0.5 - REGION_DOWN) for side in (-REGION_SIDE, REGION_SIDE)]
+        low, high = np.min(corners, axis=0), np.max(corners, axis=0)
+        x0, y0 = max(0, int(math.floor(low[0]))), max(0, int(math.floor(low[1])))
+        x1, y1 = min(width, int(math.ceil(high[0]))), min(height, int(math.ceil(high[1])))
+        self.box = (x0, y0, max(0, x1 - x0), max(0, y1 - y0))
+        self.scale = WORK_FACE_HEIGHT / self.face_height  # work px per photo px
+        self.rows = max(1, round(self.box[3] * self.scale))
+        self.cols = max(1, round(self.box[2] * self.scale))
+        ys = y0 + (np.arange(self.rows) + 0.5) * self.box[3] / self.rows
+        xs = x0 + (np.arange(self.cols) + 0.5) * self.box[2] / self.cols
+        self.xs, self.ys = np.meshgrid(xs, ys)  # (rows, cols) photo coordinates of the work pixels' centres
+        offset = np.stack([self.xs, self.ys], -1) - self.centre
+        self.along_up = offset @ self.up / self.face_height  # face heights above the face's centre
+        self.along_right = offset @ self.right / self.face_width  # face widths right of the centre line
+
+    def sample(self, image: np.ndarray) -> np.ndarray:
+        """(H, W, 3) -> (rows, cols, 3) float32 the region on the work grid (block means, then bilinear)."""
+        x0, y0, w, h = self.box
+        factor = max(1, int(1 / self.scale))
+        region = reduce(image[y0:y0 + h, x0:x0 + w], factor)
+        return np.clip(sample_bilinear(region, (self.xs - x0) / factor, (self.ys - y0) / factor), 0, 1
+                       ).transpose(1, 2, 0)
+
+    def segmenter_matrix(self) -> np.ndarray:
+        """(2, 3) the model's 256 x 256 input onto the square around the region (the head and shoulders, as a selfie
+        frames them)."""
+        x0, y0, w, h = self.box
+        side = max(w, h)
+        return np.array([[side / SEGMENTER_SIZE, 0.0, x0 + (w - side) / 2],
+                         [0.0, side / SEGMENTER_SIZE, y0 + (h - side) / 2]])
+
+    def sample_person(self, probability: np.ndarray) -> np.ndarray:
+        """The segmenter's (256, 256) output on the work grid (rows, cols)."""
+        x0, y0, w, h = self.box
+        side = max(w, h)
+        u = (self.xs - (x0 + (w - side) / 2)) * SEGMENTER_SIZE / side
+        v = (self.ys - (y0 + (h - side) / 2)) * SEGMENTER_SIZE / side
+        return sample_bilinear(probability[..., None].astype(np.float32), u, v)[0]
+
+    def polygon(self, points: np.ndarray) -> np.ndarray:
+        """(rows, cols) bool: the work pixels inside a polygon (K, 2) given in photo pixels."""
+        x0, y0, w, h = self.box
+        work = (points.astype(np.float64) - (x0, y0)) * (self.cols / max(w, 1), self.rows / max(h, 1))
+        return polygon_mask(work, 0, 0, self.cols, self.rows)
+
+    def seed(self) -> np.ndarray:
+        """(rows, cols) bool: the band above the forehead where hair is looked for first."""
+        above_top = self.along_up - 0.5
+        return ((above_top >= SEED_UP[0]) & (above_top <= SEED_UP[1])
+                & (np.abs(self.along_right) <= SEED_HALF_WIDTH))
+
+    def seed_area(self) -> float:
+        """The seed band's area in work pixels, had the photo no edges."""
+        return (SEED_UP[1] - SEED_UP[0]) * 2 * SEED_HALF_WIDTH * self.face_width / self.face_height \
+            * WORK_FACE_HEIGHT ** 2
+
+    def clothes(self) -> list[np.ndarray]:
+        """(rows, cols) bool each: below the chin, in the middle: the collar and the chest."""
+        below = -0.5 - self.along_up
+        middle = np.abs(self.along_right) <= SEED_HALF_WIDTH
+        return [middle & (below >= low) & (below < high) for low, high in CLOTHES_BELOW]
+
+    def under_chin(self) -> np.ndarray:
+        """(rows, cols) bool: below the chin and in front of the neck, where hair hangs only behind the head."""
+        return (self.along_up < -0.5) & (np.abs(self.along_right) < NECK_HALF_WIDTH)
+
+    def oval_area(self, oval: np.ndarray) -> float:
+        """The face oval's area (K, 2) in photo pixels (shoelace)."""
+        x, y = oval[:, 0].astype(np.float64), oval[:, 1].astype(np.float64)
+        return 0.5 * abs(float(x @ np.roll(y, -1) - y @ np.roll(x, -1)))
+
+    def to_image(self, score: np.ndarray) -> np.ndarray:
+        """(rows, cols) hair score in [0, 1] -> (H, W) float32 0/1 on the photo, over the region (bilinear, > 0.5)."""
+        x0, y0, w, h = self.box
+        mask = np.zeros(self.shape, np.float32)
+        mask[y0:y0 + h, x0:x0 + w] = linear_weights(h, self.rows) @ score @ linear_weights(w, self.cols).T > 0.5
+        return mask
+
+
+def linear_weights(size: int, work: int) -> np.ndarray:
+    """(size, work) linear interpolation from `work` pixels onto `size` spanning the same extent (centres aligned,
+    edges repeated): a separable bilinear resize is weights(h) @ image @ weights(w).T."""
+    position = np.clip((np.arange(size) + 0.5) * work / size - 0.5, 0, work - 1)
+    low = np.floor(position).astype(int)
+    high = np.minimum(low + 1, work - 1)
+    weights = np.zeros((size, work))
+    weights[np.arange(size), low] += 1 - (position - low)
+    weights[np.arange(size), high] += position - low
+    return weights
+
+
+def is_hair_colour(lab: np.ndarray) -> bool:
+    """Whether a CIELAB colour (3,) can be a hair colour, natural or dyed: not more vivid than MAX_HAIR_CHROMA."""
+    return math.hypot(lab[1], lab[2]) <= MAX_HAIR_CHROMA
+
+
+def patch_problem(image: np.ndarray) -> str:
+    """'' when a picture with no face (H, W, 3) can be a patch of hair, else why not ('no hair found: ...')."""
+    image = as_rgb(image)
+    small = reduce(image, max(1, math.ceil(max(image.shape[:2]) / PATCH_SIZE)))
+    grey = small.mean(axis=2, dtype=np.float64)
+    if grey.std() <= BLANK_STD:
+        return "no hair found: the image is blank"
+    centred = grey - grey.mean()
+    correlation = max(float((centred[1:] * centred[:-1]).mean()), float((centred[:, 1:] * centred[:, :-1]).mean()))
+    if correlation < MIN_NEIGHBOUR_CORRELATION * centred.var():
+        return "no hair found: no face, and the image is noise, not a patch of hair"
+    if not is_hair_colour(np.median(srgb_to_lab(small).reshape(-1, 3), axis=0)):
+        return "no hair found: no face, and the image's colour is not a hair colour; crop the hair or give a mask"
+    return ""
+
+
+def colour_models(lab: np.ndarray, oval: np.ndarray, person: np.ndarray, clothes: list[np.ndarray]
+                  ) -> dict[str, Gaussian]:
+    """The photo's own colour models, each from the pixels it surely covers: the skin (the face oval, its outliers
+    trimmed), the background (not the person), the clothes (the collar and the chest)."""
+    models = {}
+    skin = lab[oval]
+    if len(skin) >= 8:
+        first = Gaussian.fit(skin)
+        distance = -2 * first.log_likelihood(skin) - first.log_det
+        models["skin"] = Gaussian.fit(skin[distance < np.quantile(distance, 0.8)]) or first
+    samples = [("background", person < BACKGROUND)] + [(f"clothes {i}", where & (person >= PERSON))
+                                                       for i, where in enumerate(clothes)]
+    for name, where in samples:
+        model = Gaussian.fit(lab[where])
+        if model is not None:
+            models[name] = model
+    return models
+
+
+def split_by_lightness(hair: np.ndarray) -> list[Gaussian]:
+    """(N, 3) CIELAB of hair -> a model each of its darker and lighter half (hair in light and in shade), or one for
+    few samples; [] for fewer than 8."""
+    if len(hair) < 8:
+        return []
+    lightness, a_star, b_star = np.median(hair, axis=0)
+    chroma = math.hypot(a_star, b_star)
+    floor = LAB_FLOOR + np.diag([lightness, chroma, chroma]) ** 2 * HAIR_SPREAD ** 2
+    if len(hair) < 16:
+        return [Gaussian.fit(hair, floor)]
+    lighter = hair[:, 0] >= lightness
+    halves = (Gaussian.fit(hair[~lighter], floor), Gaussian.fit(hair[lighter], floor))
+    return [model for model in halves if model is not None]
+
+
+def hair_margin(lab: np.ndarray, hair_models: list[Gaussian], models: dict[str, Gaussian]) -> np.ndarray:
+    """(rows, cols) the best hair model's log-likelihood less the best of the others', smoothed over 3 x 3 pixels."""
+    hair = np.max([model.log_likelihood(lab) for model in hair_models], axis=0)
+    others = [model.log_likelihood(lab) for model in models.values()]
+    best_other = np.max(others, axis=0) if others else np.full_like(hair, -np.inf)
+    return box_blur(np.clip(hair - best_other, -50, 50))
+
+
+def box_blur(values: np.ndarray) -> np.ndarray:
+    """(rows, cols) the mean over each pixel's 3 x 3 neighbourhood, edges repeated."""
+    padded = np.pad(values, 1, mode="edge")
+    rows, cols = values.shape
+    return sum(padded[dy:dy + rows, dx:dx + cols] for dy in range(3) for dx in range(3)) / 9.0
+
+
+def grow(seed: np.ndarray, allowed: np.ndarray) -> np.ndarray:
+    """(rows, cols) bool: the pixels of `allowed` connected to `seed` (4-neighbours), by repeated dilation."""
+    region = seed & allowed
+    while True:
+        grown = region.copy()
+        grown[1:] |= region[:-1]
+        grown[:-1] |= region[1:]
+        grown[:, 1:] |= region[:, :-1]
+        grown[:, :-1] |= region[:, 1:]
+        grown &= allowed
+        if (grown == region).all():
+            return region
+        region = grown
+
+
+def cached_hair_locator(segmenter_path: str | Path) -> HairLocator:
+    """One HairLocator per model file (by resolved path, mtime and size), made on first use."""
+    path = Path(segmenter_path).expanduser().resolve()
+    if not path.is_file():
+        raise VtoError(f"no person model at {path}")
+    stat = path.stat()
+    key = (str(path), stat.st_mtime_ns, stat.st_size)
+    if _LOCATORS.get("key") != key:
+        _LOCATORS.update(key=key, locator=HairLocator(path))
+    return _LOCATORS["locator"]
+
+
+_LOCATORS: dict = {}
