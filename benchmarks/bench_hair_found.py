@@ -67,7 +67,8 @@ def run(records: list[dict], qualities: list[str], work: Path) -> tuple[list, li
     model = MODELS / "hair_encoder.onnx"
     drawn_masks = load_records()
     found_rows, estimate_rows, pictures = [], [], []
-    figures = {"iou": [], "colour": [], "colour_drawn": [], "hair_ms": [], "face_ms": [], "mp": [], "held_out": []}
+    figures = {"iou": [], "colour": [], "colour_drawn": [], "hair_ms": [], "face_ms": [], "mp": [], "held_out": [],
+               "patches": [], "drawn_vs_patch": []}
     figures |= {f"{quality}{what}": [] for quality in qualities for what in ("", "_drawn", "_ms")}
     for record in records:
         photo = load_photo(record, PHOTOS.parent)
@@ -75,6 +76,9 @@ def run(records: list[dict], qualities: list[str], work: Path) -> tuple[list, li
         drawn = rasterise(drawn_masks[record["file"]], height, width)
         x, y, w, h = record["hair_patches"][0]
         patch_colour, drawn_colour = photo[y:y + h, x:x + w].reshape(-1, 3).mean(0), photo[drawn].mean(0)
+        figures["drawn_vs_patch"].append(delta_e(drawn_colour, patch_colour))
+        for x2, y2, w2, h2 in record["hair_patches"][1:2]:  # how far two hand patches of one hair lie apart
+            figures["patches"].append(delta_e(photo[y2:y2 + h2, x2:x2 + w2].reshape(-1, 3).mean(0), patch_colour))
         face, hair, face_ms, hair_ms = finding(photo)
         found = hair.mask > 0.5 if hasattr(hair, "mask") else None
         iou = float((found & drawn).sum() / (found | drawn).sum()) if found is not None else 0.0
@@ -187,6 +191,12 @@ def main(argv: list[str] | None = None) -> None:
         f"Finding the hair (the face mesh apart): median {np.median(figures['hair_ms']):.0f} ms, largest "
         f"{max(figures['hair_ms']):.0f} ms on photos of {min(figures['mp']):.2f}-{max(figures['mp']):.2f} MP "
         f"(median {np.median(per_mp):.0f} ms per MP); the face reader: median {np.median(figures['face_ms']):.0f} ms.",
+        "How far the reference itself spreads: the two hand patches of one hair (photos.json, the "
+        f"{len(figures['patches'])} photos with two) lie a median {np.median(figures['patches']):.1f} CIEDE2000 apart "
+        f"(largest {max(figures['patches'], default=0):.1f}); the mean of the whole hand-drawn hair lies a median "
+        f"{np.median(figures['drawn_vs_patch']):.1f} from the first patch "
+        f"(largest {max(figures['drawn_vs_patch']):.1f})."
+        " A hair is lit and shaded across the head, and one patch is one place on it.",
         "## Hair found\n\n" + table(["photo", "hair", "size", "IoU with the hand mask", "found vs hand patch",
                                      "found vs hand mask", "face ms", "hair ms"], found_rows),
         "## From the whole portrait (CIEDE2000 of the estimate's apparent colour against the hand patch's)\n\n"

@@ -127,7 +127,8 @@ def fast_values(spec, reference, values: dict[str, float]) -> dict[str, float]:
 
 def batch_reference(renderer: str, image: Path):
     """A photo of the folder made ready as the panel makes it (blender_addon.reference.read_reference): lips found
-    (lipstick), or hair cut by its '<name>_mask' beside it (hair; without one the photo is taken as all hair)."""
+    (lipstick), or the hair (its '<name>_mask' beside it wins; else the hair found around a face, or a patch of hair
+    with no face read whole)."""
     mask = next(iter(sorted(image.parent.glob(image.stem + "_mask.*"))), None)
     return read_reference(renderer, {"image_path": str(image), "mask_path": str(mask) if mask else ""})
 

@@ -34,7 +34,10 @@ def draw_reference(column, props, preview_name: str, renderer: str) -> None:
     if icon_id:
         column.template_icon(icon_value=icon_id, scale=THUMBNAIL_SCALE)
     if why and why != "no image chosen":
-        column.label(text=why, icon="INFO" if icon_id and not why.startswith(("no lips", "no hair")) else "ERROR")
+        icon = "INFO" if icon_id and not why.startswith(("no lips", "no hair")) else "ERROR"
+        for line in why.split("; "):  # one line a note: what was found, then the light read
+            column.label(text=line, icon=icon)
+            icon = "BLANK1"
     column.prop(props, "use_crop", text="Part of the Image")
     if props.use_crop:
         box = column.column(align=True)

@@ -119,7 +119,7 @@ def icon(props, name: str, renderer: str = "lipstick") -> tuple[int, str]:
         if key[-1]:
             try:  # as Match will find them
                 found = lips_reference(reference, crop) if renderer == "lipstick" else hair_reference(reference)
-                lips, hair, note = found.lips, found.hair, " ".join(found.notes)
+                lips, hair, note = found.lips, found.hair, "; ".join(found.notes)
             except VtoError as exc:
                 note = str(exc)
         rgba = compose(reference, crop, mask, lips, hair)

@@ -233,3 +233,31 @@ def test_hair_batch_takes_circular_medians_and_skips_the_asset_library(tmp_path)
     assert written["hue"] == circular_median([e["hue"] for e in estimates], 0.0, 1.0)
     assert written == pytest.approx(median_values(spec, estimates))
     assert read_image(out / "sheet.png")[0].shape == (2 * RES, 2 * RES, 3)
+
+
+def test_hair_batch_finds_the_hair_in_portraits_and_a_mask_beside_a_photo_wins(tmp_path):
+    import skimage.data
+
+    from blender_addon.batch import batch_reference
+
+    photos = tmp_path / "photos"
+    photos.mkdir()
+    portrait = skimage.data.astronaut().astype(np.float32) / 255
+    for stem in ("found", "painted"):
+        write_image(photos / f"{stem}.png", portrait)
+    painted = np.zeros((512, 512), np.float32)
+    painted[20:90, 150:230] = 1.0  # her hair patch, painted by hand
+    write_image(photos / "painted_mask.png", painted)
+    found, masked = (batch_reference("hair", photos / f"{stem}.png") for stem in ("found", "painted"))
+    assert found.hair is not None and found.notes[0].startswith("hair found: ")
+    assert masked.hair is None and np.array_equal(masked.region[1] > 0.5, painted > 0.5)
+    model = str(Path(__file__).resolve().parents[2] / "blender_addon" / "models" / "hair_encoder.onnx")
+    out = tmp_path / "out"
+    assert cli.run(["batch", "--model", model, "--images", str(photos), "--out", str(out), "--group-by", r"^[a-z]+",
+                    "--quiet"]) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["products"] == {"found": ["found.png"], "painted": ["painted.png"]} and report["skipped"] == []
+    session = EncoderSession(model)
+    presets = load_presets("hair", out / "presets.json")
+    assert presets["found"] == pytest.approx(photo_estimate(session, "hair", photos / "found.png"), abs=1e-4)
+    assert presets["found"] != pytest.approx(presets["painted"], abs=1e-3)

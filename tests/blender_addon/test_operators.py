@@ -492,6 +492,49 @@ def test_the_thumbnail_outlines_the_lips_found():
     assert cyan.sum() > 100 and abs(cols.mean() - 64) < 6 and abs(rows.mean() - 64) < 6  # the lens, centred
 
 
+def test_the_thumbnail_outlines_the_hair_found():
+    from blender_addon.thumbnail import HAIR_COLOUR, compose
+    from vto_core.hair_locator import HairFound
+
+    picture = np.full((64, 64, 3), 0.5, np.float32)
+    mask = np.zeros((64, 64), np.float32)
+    mask[8:24, 16:48] = 1.0  # a band of hair across the top
+    canvas = compose(picture, None, None, hair=HairFound(mask, (16, 8, 32, 16), 1, ""))
+    green = np.all(np.isclose(canvas[..., :3], HAIR_COLOUR), axis=-1)
+    rows, cols = np.nonzero(green)
+    assert green.sum() > 50 and abs(rows.mean() - 32) < 3 and abs(cols.mean() - 64) < 3  # its outline, scaled 2x
+    assert not green[20:44, 40:88].any()  # an outline, not a fill
+
+
+def test_hair_is_found_in_a_portrait_by_the_operator_and_no_hair_changes_nothing(portrait, tmp_path):
+    from blender_addon.batch import fast_values
+    from blender_addon.reference import read_reference
+
+    hair = get_spec("hair")
+    scene = bpy.data.scenes.new("Hair Portrait")
+    with bpy.context.temp_override(scene=scene):
+        bpy.ops.vto.add_hair_compositor()
+
+    def values():
+        return {p.name: float(n.inputs[p.socket].default_value) for n in apply.hair_nodes(scene) for p in hair.params
+                if p.socket in n.inputs}
+
+    before = values()
+    noise = tmp_path / "noise.png"
+    write_image(noise, np.random.default_rng(0).random((200, 200, 3)).astype(np.float32))
+    with bpy.context.temp_override(scene=scene):
+        status, error = run_match(target="HAIR", image_path=str(noise))
+        assert status == {"CANCELLED"} and error == "Error: no hair found: no face, and the image is noise, not a patch "\
+            "of hair" and values() == before
+        assert run_match(target="HAIR", image_path=portrait) == ({"FINISHED"}, None)
+    found = read_reference("hair", {"image_path": portrait})
+    assert found.hair is not None
+    session = EncoderSession(str(apply.MODELS / "hair_encoder.onnx"))
+    estimate = fast_values(session.spec, found, session.predict(found.image)[0])  # what batch and the operator write
+    written = values()
+    assert {k: written[k] for k in hair.modelled} == pytest.approx({k: estimate[k] for k in hair.modelled}, abs=1e-4)
+
+
 # --- `vto match --material NAME --save` -------------------------------------------------------------------------
 
 def digest(path: Path) -> str:
