@@ -183,7 +183,7 @@ def test_a_bad_shape_is_refused(locator):
         locator.locate(np.zeros((0, 4, 3), np.float32))
 
 
-def test_the_module_imports_nothing_blender_lacks():
+def test_the_face_lips_and_hair_modules_import_nothing_blender_lacks():
     code = ("import sys, vto_core.lips_locator, vto_core.face_reader, vto_core.hair_locator\n"
             "bad = [m for m in ('onnxruntime', 'bpy', 'torch', 'skimage', 'scipy', 'cv2', 'PIL', 'OpenImageIO')"
             " if m in sys.modules]\nprint(','.join(bad))\n")
