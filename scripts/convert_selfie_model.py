@@ -183,7 +183,8 @@ class Converter:
         _, out_height, out_width, out_channels = self.shape(target)
         graph = onnx.helper.make_graph(
             self.nodes, "selfie_segmentation",
-            [onnx.helper.make_tensor_value_info(self.name(source), onnx.TensorProto.FLOAT, [1, channels, height, width])],
+            [onnx.helper.make_tensor_value_info(self.name(source), onnx.TensorProto.FLOAT,
+                                                [1, channels, height, width])],
             [onnx.helper.make_tensor_value_info(self.name(target), onnx.TensorProto.FLOAT,
                                                 [1, out_channels, out_height, out_width])],
             sorted(self.initialisers, key=lambda tensor: tensor.name))

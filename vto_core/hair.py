@@ -24,8 +24,8 @@ BLEND_OFFSET, BLEND_SCALE = 0.25, 0.75
 GLOBAL_CONTRAST_GAIN = 2.0
 LOCAL_CONTRAST_GAIN = 1.0
 LOCAL_RADIUS = 0.05
-CURVE_TABLE_POINTS = 257
-SQUARE_LOOKAHEAD = 8  # sides past the bisected largest square that hair_square also tries  # Blender tabulates a curve at 257 points over [0, 1]
+CURVE_TABLE_POINTS = 257  # Blender tabulates a curve at 257 points over [0, 1]
+SQUARE_LOOKAHEAD = 8  # sides past the bisected largest square that hair_square also tries
 
 
 def hair_gradient(mask: np.ndarray) -> np.ndarray:

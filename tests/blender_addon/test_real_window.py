@@ -3,8 +3,8 @@
 scripts/real_window/run.sh builds the linux-x64 zip, installs it from disk as an artist does (the proof that the
 cp313 wheels install with no hand edits), presses Match with real X11 clicks in the Material tab (a whole portrait,
 scikit-image's astronaut: Fast, the one quality lips are offered) and in the Compositor's sidebar (the same whole
-portrait, the hair found in it: Fast twice, then Better chosen in the Quality row), and undoes with a real ctrl+z. Skipped where the chroot
-(scripts/real_window/setup_chroot.sh) or root is missing; about 3 minutes.
+portrait, the hair found in it: Fast twice, then Better chosen in the Quality row), and undoes with a real ctrl+z.
+Skipped where the chroot (scripts/real_window/setup_chroot.sh) or root is missing; about 3 minutes.
 A run that stops early still leaves result.json up to the step it reached: each test checks its own part.
 """
 

@@ -186,3 +186,27 @@ def test_hair_square_is_none_for_thin_or_empty_masks():
     assert hair_square(thin) is None
     assert hair_square(np.ones((20, 20)), smallest=0.5) == (0, 0, 20)
     assert hair_square(np.full((10, 10), np.nan)) is None
+
+
+def test_hair_square_finds_the_largest_square_a_side_by_side_search_finds():
+    from vto_core.hair import hair_square
+
+    def slow(mask, share):  # every side from the largest down, as hair_square did before it bisected
+        table = np.zeros((mask.shape[0] + 1, mask.shape[1] + 1))
+        table[1:, 1:] = mask.cumsum(0).cumsum(1)
+        for side in range(min(mask.shape), 7, -1):
+            inside = table[side:, side:] - table[:-side, side:] - table[side:, :-side] + table[:-side, :-side]
+            if (inside >= share * side * side).any():
+                return side
+        return None
+
+    rng = np.random.default_rng(3)
+    for _ in range(25):
+        mask = np.zeros((rng.integers(20, 90), rng.integers(20, 90)), bool)
+        for _ in range(rng.integers(1, 4)):  # a few blobs of hair, with holes
+            y, x = rng.integers(0, mask.shape[0]), rng.integers(0, mask.shape[1])
+            mask[y:y + rng.integers(5, 60), x:x + rng.integers(5, 60)] = True
+        mask &= rng.random(mask.shape) > 0.03
+        for share in (1.0, 0.95):
+            found = hair_square(mask, share)
+            assert (found[2] if found else None) == slow(mask, share)
