@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import VtoError
-from .inference import cpu_session
+from .inference import cpu_session, file_key
 
 DETECTOR_SIZE = 128  # BlazeFace short range: (1, 3, 128, 128) in [-1, 1]
 MESH_SIZE = 192  # face mesh: (1, 3, 192, 192) in [0, 1]
@@ -380,14 +380,7 @@ _READERS: dict[tuple, FaceReader] = {}
 def cached_reader(detector_path: str | Path, landmarks_path: str | Path) -> FaceReader:
     """One FaceReader per pair of model files, made on first use and reused while neither file changes (keyed by
     resolved path, mtime and size, as vto_core.inference.cached_session)."""
-    key = []
-    for path in (detector_path, landmarks_path):
-        path = Path(path).expanduser().resolve()
-        if not path.is_file():
-            raise VtoError(f"no face model at {path}")
-        stat = path.stat()
-        key.append((str(path), stat.st_mtime_ns, stat.st_size))
-    key = tuple(key)
+    key = (file_key(detector_path, "face model"), file_key(landmarks_path, "face model"))
     reader = _READERS.get(key)
     if reader is None:
         reader = FaceReader(detector_path, landmarks_path)

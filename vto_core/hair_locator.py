@@ -21,7 +21,7 @@ import numpy as np
 from .colour import srgb_to_lab
 from .errors import VtoError
 from .face_reader import FaceRead, as_rgb, polygon_mask, reduce, sample_bilinear, tight_box, warp
-from .inference import cpu_session
+from .inference import cpu_session, file_key
 
 SEGMENTER_SIZE = 256  # selfie segmentation: (1, 3, 256, 256) display RGB in [0, 1] -> (1, 1, 256, 256) person
 # MediaPipe's FACEMESH_FACE_OVAL, in order around the face; 10 is the top of the forehead, 152 the chin.
@@ -148,13 +148,13 @@ class HeadFrame:
     WORK_FACE_HEIGHT px per face height."""
 
     def __init__(self, landmarks: np.ndarray, height: int, width: int):
-        self.landmarks = landmarks.astype(np.float64)
+        landmarks = landmarks.astype(np.float64)
         self.shape = (height, width)
-        top, chin = self.landmarks[FOREHEAD], self.landmarks[CHIN]
+        top, chin = landmarks[FOREHEAD], landmarks[CHIN]
         self.face_height = max(float(np.linalg.norm(top - chin)), 1.0)
         self.up = (top - chin) / self.face_height
         self.right = np.array([-self.up[1], self.up[0]])  # image right when the face is upright
-        self.face_width = max(float(np.linalg.norm(self.landmarks[LEFT_CHEEK] - self.landmarks[RIGHT_CHEEK])), 1.0)
+        self.face_width = max(float(np.linalg.norm(landmarks[LEFT_CHEEK] - landmarks[RIGHT_CHEEK])), 1.0)
         self.centre = (top + chin) / 2
         corners = [self.centre + self.up * (up * self.face_height) + self.right * (side * self.face_width)
                    for up in (0.5 + REGION_UP, -0.5 - REGION_DOWN) for side in (-REGION_SIDE, REGION_SIDE)]
@@ -335,13 +335,9 @@ def grow(seed: np.ndarray, allowed: np.ndarray) -> np.ndarray:
 
 def cached_hair_locator(segmenter_path: str | Path) -> HairLocator:
     """One HairLocator per model file (by resolved path, mtime and size), made on first use."""
-    path = Path(segmenter_path).expanduser().resolve()
-    if not path.is_file():
-        raise VtoError(f"no person model at {path}")
-    stat = path.stat()
-    key = (str(path), stat.st_mtime_ns, stat.st_size)
+    key = file_key(segmenter_path, "person model")
     if _LOCATORS.get("key") != key:
-        _LOCATORS.update(key=key, locator=HairLocator(path))
+        _LOCATORS.update(key=key, locator=HairLocator(key[0]))
     return _LOCATORS["locator"]
 
 

@@ -114,20 +114,26 @@ def shrink(image: np.ndarray, height: int, width: int) -> np.ndarray:
 _SESSIONS: dict[tuple[str, int, int], EncoderSession] = {}
 
 
+def file_key(path: str | Path, what: str = "model") -> tuple[str, int, int]:
+    """(resolved path, mtime in ns, size) of a model file, what a cache of its sessions is keyed by: a retrained model
+    written over the old one is loaded again; VtoError 'no {what} at ...' for a missing file."""
+    path = Path(path).expanduser().resolve()
+    if not path.is_file():
+        raise VtoError(f"no {what} at {path}")
+    stat = path.stat()
+    return str(path), stat.st_mtime_ns, stat.st_size
+
+
 def cached_session(path: str | Path) -> EncoderSession:
     """One EncoderSession per model file, made on first use and reused while the file is unchanged.
 
     Keyed by the resolved path, its mtime and its size: a retrained model written over the old one is loaded again.
     A file that fails to load is not cached (the next call tries again and says why again).
     """
-    path = Path(path).expanduser().resolve()
-    if not path.is_file():
-        raise VtoError(f"no encoder model at {path}")
-    stat = path.stat()
-    key = (str(path), stat.st_mtime_ns, stat.st_size)
+    key = file_key(path, "encoder model")
     session = _SESSIONS.get(key)
     if session is None:
-        session = EncoderSession(path)
+        session = EncoderSession(key[0])
         for stale in [k for k in _SESSIONS if k[0] == key[0]]:
             del _SESSIONS[stale]
         _SESSIONS[key] = session
