@@ -31,17 +31,20 @@ QUALITIES = ("fast", "better", "best")
 
 
 def finding(photo: np.ndarray) -> tuple[object, object, float, float]:
-    """(the face, the hair found or the VtoError, face ms, hair ms), each timed warm (the second of two runs)."""
-    from blender_addon.reference import locate_hair, read_face
+    """(the face, the hair found or the VtoError, face ms, hair ms), each timed warm (the second of two runs). The
+    hair is found in the photo's light read beside the lips, as the product finds it (that reading is not timed)."""
+    from blender_addon.reference import locate_hair, locate_lips, read_face
     from vto_core.errors import VtoError
+    from vto_core.photo_light import light_of
 
     for _ in range(2):
         started = time.perf_counter()
         face = read_face(photo)
         face_ms = 1000 * (time.perf_counter() - started)
+        light = light_of(photo, locate_lips(photo, face).mask) if face is not None else None
         started = time.perf_counter()
         try:
-            hair = locate_hair(photo, face) if face is not None else VtoError("no face")
+            hair = locate_hair(photo, face, light) if face is not None else VtoError("no face")
         except VtoError as exc:
             hair = exc
         hair_ms = 1000 * (time.perf_counter() - started)

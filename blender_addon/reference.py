@@ -205,12 +205,13 @@ def locate_lips(image: np.ndarray, face=None):
     return cached_locator(MODELS / FACE_DETECTOR, MODELS / FACE_LANDMARKS).locate(image, face)
 
 
-def locate_hair(image: np.ndarray, face):
-    """vto_core.hair_locator.HairFound: the hair of `face`'s person in (H, W, 3), with the shipped person model;
-    VtoError 'no hair found ...' where there is none."""
+def locate_hair(image: np.ndarray, face, light=None):
+    """vto_core.hair_locator.HairFound: the hair of `face`'s person in (H, W, 3), with the shipped person model, its
+    colours read with the photo's `light` taken out (None: as they are); VtoError 'no hair found ...' where there is
+    none."""
     from vto_core.hair_locator import cached_hair_locator
 
-    return cached_hair_locator(MODELS / PERSON_SEGMENTER).locate(image, face)
+    return cached_hair_locator(MODELS / PERSON_SEGMENTER).locate(image, face, light)
 
 
 def _cut(image: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
@@ -272,18 +273,29 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     return Reference(image, region, whole, box, lips, notes, light)
 
 
-def face_and_hair(whole: np.ndarray, find_hair: bool) -> tuple[object, object]:
-    """(the largest face of `whole` or None, the hair found around it or None): read_face and, with find_hair and a
-    face, locate_hair (VtoError 'no hair found ...'). The last photo's are kept, by a hash of its pixels: the panel's
-    thumbnail finds the hair when the photo is chosen, and Match then reads it again at no cost."""
+def face_and_hair(whole: np.ndarray, find_hair: bool, neutral_light: bool) -> tuple[object, object, object]:
+    """(the largest face of `whole` or None, the photo's light read beside its lips or None, the hair found around
+    it or None): read_face; with neutral_light and a face, light_of the skin beside the lips; with find_hair and a
+    face, locate_hair in that light (VtoError 'no hair found ...'). The last photo's face and hair are kept, by a hash
+    of its pixels: the panel's thumbnail finds the hair when the photo is chosen, and Match then reads it again at no
+    cost."""
     key = (whole.shape, whole.dtype.str, hashlib.blake2b(np.ascontiguousarray(whole).view(np.uint8),
                                                          digest_size=16).digest())
     if _LAST_FOUND.get("key") != key:
         _LAST_FOUND.clear()
         _LAST_FOUND.update(key=key, face=read_face(whole))
-    if find_hair and _LAST_FOUND["face"] is not None and "hair" not in _LAST_FOUND:
-        _LAST_FOUND["hair"] = locate_hair(whole, _LAST_FOUND["face"])
-    return _LAST_FOUND["face"], _LAST_FOUND.get("hair") if find_hair else None
+    face, light, hair = _LAST_FOUND["face"], None, None
+    if neutral_light and face is not None:
+        try:
+            light = light_of(whole, locate_lips(whole, face).mask)
+        except VtoError:  # a face too small for its lips to cover a pixel: no skin beside them to read
+            light = None
+    if find_hair and face is not None:
+        light_key = None if light is None else tuple(light.gains)
+        if _LAST_FOUND.get("hair", (False,))[0] != light_key:
+            _LAST_FOUND["hair"] = (light_key, locate_hair(whole, face, light))
+        hair = _LAST_FOUND["hair"][1]
+    return face, light, hair
 
 
 _LAST_FOUND: dict = {}
@@ -304,8 +316,8 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     height, width = whole.shape[:2]
     box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
     finding = find_hair and crop is None and mask is None
-    face, hair = face_and_hair(whole, finding) if neutral_light or finding else (None, None)
-    notes, light = [], None
+    face, light, hair = face_and_hair(whole, finding, neutral_light) if neutral_light or finding else (None,) * 3
+    notes = []
     if finding:
         if face is None:
             problem = patch_problem(whole)
@@ -317,15 +329,7 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
             notes += [hair.note] if hair.note else []
             notes.append(f"hair found: {hair.mask.mean():.0%} of the photo")
     if neutral_light:
-        try:
-            lips = locate_lips(whole, face) if face is not None else None
-        except VtoError:
-            lips = None
-        if lips is not None:
-            light = light_of(whole, lips.mask)
-            notes.append(light.describe())
-        else:
-            notes.append(NO_FACE_LIGHT)
+        notes.append(NO_FACE_LIGHT if light is None else light.describe())
     rgb = _cut_read(whole, box, light)
     mask = np.ones(rgb.shape[:2], np.float32) if mask is None else _cut(mask, box)
     if not mask.any():

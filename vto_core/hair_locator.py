@@ -22,6 +22,7 @@ from .colour import srgb_to_lab
 from .errors import VtoError
 from .face_reader import FaceRead, as_rgb, polygon_mask, reduce, sample_bilinear, tight_box, warp
 from .inference import cpu_session, file_key
+from .photo_light import PhotoLight, neutral_photo
 
 SEGMENTER_SIZE = 256  # selfie segmentation: (1, 3, 256, 256) display RGB in [0, 1] -> (1, 1, 256, 256) person
 # MediaPipe's FACEMESH_FACE_OVAL, in order around the face; 10 is the top of the forehead, 152 the chin.
@@ -106,15 +107,17 @@ class HairLocator:
         (probability,) = self.segmenter.run(None, {self.segmenter_input: warp(image, matrix, SEGMENTER_SIZE)[None]})
         return np.nan_to_num(probability[0, 0])
 
-    def locate(self, image: np.ndarray, face: FaceRead) -> HairFound:
+    def locate(self, image: np.ndarray, face: FaceRead, light: PhotoLight | None = None) -> HairFound:
         """(H, W, 3) display sRGB and its largest face (FaceReader.read) -> the hair; VtoError 'no hair found ...' for
-        a bald head, a hat, hair out of frame, or too little hair to read."""
+        a bald head, a hat, hair out of frame, or too little hair to read. light: the photo's light
+        (vto_core.photo_light), taken out of the head's colours before they are modelled and judged, so a warm or
+        cool light does not make hair look like skin or a hat (the limits here are a neutral studio's)."""
         image = as_rgb(image)
         height, width = image.shape[:2]
         frame = HeadFrame(face.landmarks, height, width)
         if frame.box[2] < 4 or frame.box[3] < 4:
             raise VtoError("no hair found: the head is out of frame")
-        rgb = frame.sample(image)
+        rgb = frame.sample(image) if light is None else neutral_photo(frame.sample(image), light)
         person = frame.sample_person(self.person(image, frame.segmenter_matrix()))
         lab = srgb_to_lab(rgb).astype(np.float64)
         oval = frame.polygon(face.landmarks[FACE_OVAL])
