@@ -43,7 +43,7 @@ def brightness_split(truth: np.ndarray, estimate: np.ndarray) -> tuple[np.ndarra
 @contextlib.contextmanager
 def camera(exposure_ev: float | None, warm_cool: float | None):
     """Renders of the default scene in this block use these residual camera errors (None: as shipped)."""
-    from blender_addon import lighting
+    from blender_addon.renderers import lighting
 
     settings = {k: v for k, v in (("exposure_ev", exposure_ev), ("warm_cool", warm_cool)) if v is not None}
     shipped = lighting.portrait_light
@@ -56,7 +56,7 @@ def camera(exposure_ev: float | None, warm_cool: float | None):
 
 def render_looks(folder: Path, n: int, seed: int, exposure_ev: float | None, warm_cool: float | None):
     """`vto dataset lipstick` of n looks into `folder` (resumed if there) under that camera -> its DatasetReader."""
-    from blender_addon.commands import cmd_dataset
+    from blender_addon.datasets.commands import cmd_dataset
     from vto_core.dataset import DatasetReader
 
     with camera(exposure_ev, warm_cool):

@@ -19,11 +19,11 @@ def bare_seconds_per_sample(renderer: str, res: int, repeats: int = 10) -> float
     """bpy.ops.render.render alone (no file, no readback) for the renders one sample needs."""
     import bpy
 
-    from blender_addon.hair import COLOR_GROUP, SWATCH_GROUP, _pass_scene, render_hair_source, run_hair_stage
-    from blender_addon.lipstick import render_lipstick
-    from blender_addon.render import _quiet_stdout, configure_cycles
-    from blender_addon.scene_hair import build_hair_scene
-    from blender_addon.scene_lips import build_lips_scene
+    from blender_addon.renderers.hair import COLOR_GROUP, SWATCH_GROUP, _pass_scene, render_hair_source, run_hair_stage
+    from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.renderers.cycles import _quiet_stdout, configure_cycles
+    from blender_addon.renderers.scene_hair import build_hair_scene
+    from blender_addon.renderers.scene_lips import build_lips_scene
 
     if renderer == "lipstick":
         render_lipstick({}, 1, res, 16)
@@ -57,7 +57,7 @@ def pipeline_seconds_per_sample(renderer: str, res: int, workers: int) -> float:
 
 def in_process_seconds_per_sample(renderer: str, res: int) -> float:
     """run_in_process in this Python, after one warm-up sample (no process start at all)."""
-    from blender_addon.dataset import DatasetJob, prepare_output, run_in_process
+    from blender_addon.datasets.dataset import DatasetJob, prepare_output, run_in_process
 
     out = Path(tempfile.mkdtemp(prefix="vto-bench-"))
     job = DatasetJob(renderer, str(out), SAMPLES_PER_CONFIG + 1, res=res)

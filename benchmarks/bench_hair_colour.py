@@ -6,7 +6,7 @@ an artist gives) and matched, Fast and Better; the colour of each estimate again
 Presets: each preset's swatch at full effect (intensity 1, blend -1: a photo shows a colour, not how strongly it was
 applied) recolours the hair of --sources fresh default hair regions (seeds 700000 and up, 64 px); each is matched.
 The preset's apparent colour and the estimate's are read alike: the median over default hair regions 0-7 of the
-hair's mean colour in the stage's output (blender_addon.photo_fit.apparent_colour); the figure is CIEDE2000.
+hair's mean colour in the stage's output (blender_addon.matching.photo_fit.apparent_colour); the figure is CIEDE2000.
 Natural hair: default hair regions rendered with the melanin of black (1.0) and platinum (0.0) hair, no stage: the
 raw render is the photo. ΔL* is the estimate's lightness on regions 0-7 minus the photo hair's.
 Writes benchmarks/results/hair_colour.md.
@@ -39,10 +39,10 @@ def delta_e(a: np.ndarray, b: np.ndarray) -> float:
 def estimates(session, region: tuple[np.ndarray, np.ndarray], qualities) -> dict[str, tuple[dict, float]]:
     """quality -> (all values, ms): the encoder on the region's largest hair square fitted through the colour imitator
     (Fast), or through the stage from it or the encoder's (Better); as a Match does
-    (blender_addon.apply.iter_compute)."""
-    from blender_addon.photo_fit import fit_photo_fast, iter_fit_photo, photo_values
-    from blender_addon.reference import hair_reference
-    from blender_addon.refine import drain
+    (blender_addon.matching.apply.iter_compute)."""
+    from blender_addon.matching.photo_fit import fit_photo_fast, iter_fit_photo, photo_values
+    from blender_addon.matching.reference import hair_reference
+    from blender_addon.matching.refine import drain
 
     spec, found = session.spec, {}
     for quality in qualities:
@@ -61,8 +61,8 @@ def natural_region(source: int, melanin: float):
     """A default hair region of `source` with its melanin set: (rgb (64, 64, 3), mask (64, 64))."""
     import bpy
 
-    from blender_addon.hair import render_hair_source
-    from blender_addon.scene_hair import HAIR_MATERIAL, apply_source, build_hair_scene
+    from blender_addon.renderers.hair import render_hair_source
+    from blender_addon.renderers.scene_hair import HAIR_MATERIAL, apply_source, build_hair_scene
 
     apply_source(build_hair_scene(), source)
     node = bpy.data.materials[HAIR_MATERIAL].node_tree.nodes["Hair BSDF"]
@@ -78,8 +78,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--model", default=str(MODEL))
     parser.add_argument("--sources", type=int, default=4)
     args = parser.parse_args(argv)
-    from blender_addon.hair import render_hair_source, run_hair_stage
-    from blender_addon.photo_fit import apparent_colour
+    from blender_addon.renderers.hair import render_hair_source, run_hair_stage
+    from blender_addon.matching.photo_fit import apparent_colour
     from vto_core.hair import PHOTO_HAIR
     from vto_core.appearance import mean_colour
     from vto_core.colour import srgb_to_lab

@@ -33,9 +33,9 @@ QUALITIES = ("fast", "better", "best")
 def finding(photo: np.ndarray) -> tuple[object, object, float, float]:
     """(the face, the hair found or the VtoError, face ms, hair ms), each timed warm (the second of two runs). The
     hair is found in the photo's light read beside the lips, as the product finds it (that reading is not timed)."""
-    from blender_addon.reference import locate_hair, locate_lips, read_face
+    from blender_addon.matching.reference import locate_hair, locate_lips, read_face
     from vto_core.errors import VtoError
-    from vto_core.photo_light import light_of
+    from vto_core.photo.photo_light import light_of
 
     for _ in range(2):
         started = time.perf_counter()
@@ -63,7 +63,7 @@ def overlay(photo: np.ndarray, found: np.ndarray | None, drawn: np.ndarray) -> n
 
 def run(records: list[dict], qualities: list[str], work: Path) -> tuple[list, list, dict, list]:
     """Rows of the finding table, rows of the estimate table, figures for the summary, the picture rows."""
-    from blender_addon.photo_fit import apparent_colour, region_renderer
+    from blender_addon.matching.photo_fit import apparent_colour, region_renderer
     from vto_core.errors import VtoError
     from vto_core.imageio import write_image
 
@@ -122,7 +122,7 @@ def run(records: list[dict], qualities: list[str], work: Path) -> tuple[list, li
 
 def refusals(work: Path) -> list[list]:
     """What the hair path says of pictures with no hair to find: each should be one 'no hair found' line."""
-    from blender_addon.match import match
+    from blender_addon.matching.match import match
     from vto_core.errors import VtoError
     from vto_core.imageio import write_image
 

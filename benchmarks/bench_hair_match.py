@@ -8,8 +8,8 @@ from scipy.stats import wasserstein_distance
 from skimage.exposure import match_histograms
 
 from benchmarks.common import write_table
-from blender_addon.hair import load_swatch, render_hair_source, run_hair_stage
-from blender_addon.scene_hair import HAIR_MATERIAL, RADIAL_ROUGHNESS, build_hair_scene
+from blender_addon.renderers.hair import load_swatch, render_hair_source, run_hair_stage
+from blender_addon.renderers.scene_hair import HAIR_MATERIAL, RADIAL_ROUGHNESS, build_hair_scene
 from vto_core.colour import luminance
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.hair import (CURVE_TABLE_POINTS, LUT_POINTS, MAX_LUT_SLOPE, apply_curves_node, apply_hair_stage,
@@ -178,7 +178,7 @@ def main() -> None:
         ["Radial Roughness"] + source_columns, scene_table(sources)) + (
         "\n\nEach cell: seed-to-seed RMS of 4x4 block means on the hair source (1/255) / the lowest visibility ratio "
         "over the 9 parameters through the stage (numpy reference) and which parameter it is. 0.3 is Blender's "
-        f"default; the scene uses {RADIAL_ROUGHNESS:g} (blender_addon/scene_hair.py).\n\n") + _markdown(
+        f"default; the scene uses {RADIAL_ROUGHNESS:g} (blender_addon/renderers/scene_hair.py).\n\n") + _markdown(
         f"Visibility of every hair parameter through the Blender stage (LUT slope <= {MAX_LUT_SLOPE:g})",
         ["parameter", "25th -> 75th percentile"] + source_columns, visibility_table(sources))
     write_table(

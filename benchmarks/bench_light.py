@@ -7,13 +7,13 @@ Renders: one look on one default source under several lights (the default scene'
 seeds; white balances of 3,000 and 7,500 K and +-1 EV, as a camera left at daylight balance would record them:
 per-channel gains on the linear render, which is linear in the light). Each goes through `vto match`'s own path
 (the lips given as a mask). Figure: CIEDE2000 between the apparent colour (on default sources 0-7,
-blender_addon.photo_fit.apparent_colour) of the estimate under each light and under the source's own light.
+blender_addon.matching.photo_fit.apparent_colour) of the estimate under each light and under the source's own light.
 Photos: the public-domain portraits of benchmarks/photos, each re-lit by a global white-balance shift (3,200 K and
 7,500 K, linear RGB) and by +-0.7 EV; the figure is the CIEDE2000 of each estimate's apparent colour to the
 estimate on the photo as it is. Beside the shipped qualities: the encoder on the photo as it is and the colour fit
 that was Fast before (the light left in), the figures of the issue this answers. Hair: the same for each portrait's
 first hand-cut hair patch (the light read from the face of the whole photo), on default hair regions 0-7.
---calibrate: the default scene's skins (vto_core.photo_light.SKIN_LOG_MEAN, SKIN_LOG_COV) from 96 sources.
+--calibrate: the default scene's skins (vto_core.photo.photo_light.SKIN_LOG_MEAN, SKIN_LOG_COV) from 96 sources.
 Writes benchmarks/results/light.md (renders) and the first sections of real_photos.md (photos, hair).
 """
 
@@ -43,8 +43,8 @@ BEFORE = ("encoder, light left in", "colour fit, light left in (Fast before)")
 
 def calibrate() -> str:
     """The mean and covariance of log linear skin RGB beside the lips over CALIBRATION_SOURCES (bare lips, 64 px)."""
-    from blender_addon.lipstick import render_lipstick
-    from blender_addon.scene_lips import lips_mask
+    from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.renderers.scene_lips import lips_mask
     from vto_core.appearance import skin_colour
 
     skins = np.array([skin_colour(render_lipstick({"opacity": 0.0}, seed, 64, 16, 0), lips_mask(seed, 64))
@@ -56,10 +56,10 @@ def calibrate() -> str:
 
 def lips_estimates(path: Path, mask: Path | None, qualities: list[str]) -> dict[str, dict]:
     """method -> all parameter values for the photo at `path` (its lips mask at `mask`, or found): the shipped
-    qualities through blender_addon.match.match, and the two readings with the photo's light left in."""
-    from blender_addon.match import match
-    from blender_addon.photo_fit import fit_colour, photo_values
-    from blender_addon.reference import read_reference
+    qualities through blender_addon.matching.match.match, and the two readings with the photo's light left in."""
+    from blender_addon.matching.match import match
+    from blender_addon.matching.photo_fit import fit_colour, photo_values
+    from blender_addon.matching.reference import read_reference
     from vto_core.inference import EncoderSession
 
     model = str(MODELS / "lipstick_encoder.onnx")
@@ -84,11 +84,11 @@ def spread(apparent: dict[str, dict[str, np.ndarray]], reference: str) -> dict[s
 
 def run_renders(looks: int, qualities: list[str], work: Path) -> tuple[list, dict]:
     """Per look (sampled at seed 31), its estimates under each light: (rows, method -> all CIEDE2000s)."""
-    from blender_addon.lipstick import render_lipstick
-    from blender_addon.photo_fit import apparent_colour
-    from blender_addon.scene_lips import lips_mask
+    from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.matching.photo_fit import apparent_colour
+    from blender_addon.renderers.scene_lips import lips_mask
     from vto_core.imageio import write_image
-    from vto_core.photo_light import kelvin_gains, relit
+    from vto_core.photo.photo_light import kelvin_gains, relit
     from vto_core.presets import load_presets, preset_matrix
     from vto_core.sampling import ParamSampler
     from vto_core.specs import get_spec
@@ -122,7 +122,7 @@ def run_renders(looks: int, qualities: list[str], work: Path) -> tuple[list, dic
 def hair_estimates(path: Path, patch, qualities: list[str]) -> dict[str, dict]:
     """method -> all parameter values for the hair patch (x, y, w, h) of the photo at `path`: the shipped qualities,
     and Fast with the photo's light left in."""
-    from blender_addon.match import match
+    from blender_addon.matching.match import match
 
     model = str(MODELS / "hair_encoder.onnx")
     found = {"Fast, light left in": match(model, str(path), crop=patch, neutral_light=False)["params"]}
@@ -134,9 +134,9 @@ def hair_estimates(path: Path, patch, qualities: list[str]) -> dict[str, dict]:
 def run_photos(records: list[dict], qualities: list[str], work: Path, renderer: str) -> tuple[list, dict]:
     """Per portrait, its estimates of the lips (or its first hair patch) re-lit: (rows, method -> [(its CIEDE2000s,
     held out)])."""
-    from blender_addon.photo_fit import apparent_colour
+    from blender_addon.matching.photo_fit import apparent_colour
     from vto_core.imageio import write_image
-    from vto_core.photo_light import kelvin_gains, relit
+    from vto_core.photo.photo_light import kelvin_gains, relit
 
     rows, pooled = [], {}
     for record in records:

@@ -1,5 +1,5 @@
-"""The lips locator (vto_core.lips_locator): milliseconds per locate() at several image sizes, and how well it finds
-the lips of the real-photo set against hand-drawn boxes.
+"""The lips locator (vto_core.photo.lips_locator): milliseconds per locate() at several image sizes, and how well it
+finds the lips of the real-photo set against hand-drawn boxes.
 
 Speed: scikit-image's astronaut upscaled (PIL bicubic) to squares of 0.26, 1, 2 and 12 megapixels, float32 in [0, 1],
 the shipped face models with one onnxruntime thread (as inside Blender); the median and the best of --repeats calls
@@ -49,8 +49,8 @@ def speed(repeats: int) -> str:
     from skimage import data
 
     from vto_core.errors import VtoError
-    from vto_core.face_reader import FaceReader
-    from vto_core.lips_locator import LipsLocator
+    from vto_core.photo.face_reader import FaceReader
+    from vto_core.photo.lips_locator import LipsLocator
 
     locator = LipsLocator(FaceReader(MODELS / "face_detector.onnx", MODELS / "face_landmarks.onnx", threads=1))
     astronaut = data.astronaut()
@@ -103,8 +103,8 @@ def photo_records() -> list[tuple[str, np.ndarray, list | None, int, bool]]:
 def accuracy() -> str:
     """The accuracy table on the real-photo set as markdown ('' when the set is missing)."""
     from vto_core.errors import VtoError
-    from vto_core.face_reader import FaceReader
-    from vto_core.lips_locator import LipsLocator
+    from vto_core.photo.face_reader import FaceReader
+    from vto_core.photo.lips_locator import LipsLocator
 
     records = photo_records()
     if not records:

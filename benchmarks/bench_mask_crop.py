@@ -1,7 +1,7 @@
 """The panel's mask path on lipstick references: how the crop around a lips mask decides the colour estimate.
 
 Fresh looks (opacity >= 0.5) rendered at 128 px on fresh default sources; each reference and its lips mask written as
-PNG and read back through the panel's own path (blender_addon.reference.read_reference: the mask framed by
+PNG and read back through the panel's own path (blender_addon.matching.reference.read_reference: the mask framed by
 lips_frame), against the whole render and against the mask's own box (what the panel did before: the box stretched
 to the encoder's square). Reports the median |error| of R, G and B in 8-bit steps into
 benchmarks/results/mask_crop.md.
@@ -24,9 +24,9 @@ FIRST_SOURCE = 7000
 
 def run(model: str, n: int, seed: int) -> str:
     """The table as markdown."""
-    from blender_addon.commands import render
-    from blender_addon.reference import read_reference
-    from blender_addon.scene_lips import lips_mask
+    from blender_addon.datasets.commands import render
+    from blender_addon.matching.reference import read_reference
+    from blender_addon.renderers.scene_lips import lips_mask
     from vto_core.imageio import resize, write_image
     from vto_core.inference import EncoderSession
     from vto_core.specs import get_spec

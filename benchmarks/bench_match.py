@@ -38,8 +38,8 @@ def measure(cold_runs: int, warm_runs: int, encoder_runs: int) -> tuple[list[lis
     import bpy
 
     import blender_addon
-    from blender_addon import apply
-    from blender_addon.reference import load_reference
+    from blender_addon.matching import apply
+    from blender_addon.matching.reference import load_reference
     from vto_core import inference
     from vto_core.imageio import resize, write_image
 
@@ -97,7 +97,7 @@ def measure_hair(folder: Path, photo: np.ndarray) -> list[list]:
     """The shipped hair encoder on a photo with a mask, in the scene compositor: Fast (warm) and Better (25 renders)."""
     import bpy
 
-    from blender_addon import apply
+    from blender_addon.matching import apply
     from vto_core.imageio import write_image
 
     write_image(folder / "portrait.png", photo, bits=16)

@@ -30,7 +30,7 @@ def match_presets(model: str, sources: range, lighting: str | None, res: int = 6
                   overrides: dict[str, float] | None = None) -> dict[str, dict]:
     """preset -> {'set': (3,), 'estimates': (S, 3), 'errors': (S, 3)} for every lipstick preset, rendered with its
     values updated by `overrides`."""
-    from blender_addon.commands import render
+    from blender_addon.datasets.commands import render
     from vto_core.inference import EncoderSession
     from vto_core.presets import load_presets
 
@@ -82,7 +82,7 @@ def main() -> None:
                                                              "preset at instead (section roughness-NAME)")
     parser.add_argument("--results", default=str(RESULTS))
     args = parser.parse_args()
-    from blender_addon.scene_lips import DEFAULT_LIGHTING
+    from blender_addon.renderers.scene_lips import DEFAULT_LIGHTING
 
     lighting = args.lighting or DEFAULT_LIGHTING
     sources = range(args.first, args.first + args.sources)

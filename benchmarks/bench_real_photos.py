@@ -5,12 +5,12 @@ and Best, each estimate rendered on the default scene and its colour compared wi
 
 Photos: benchmarks/photos/photos.json (each with its source, licence, a hand-drawn lips box and hair patches), the
 two that ship in packages among them. Each goes in whole, as an artist gives it, through `vto match`'s own path
-(blender_addon.match.match).
+(blender_addon.matching.match.match).
 
 Lips. The photo's lip colour is read over the lips the locator found (their mean, and their per-channel median: the
 body colour without highlights); the estimate's apparent colour is the same statistic over the lips of its renders
-on default sources 0-7 (64 px, 16 spp), the median over the sources (blender_addon.photo_fit.apparent_colour). The
-figure is CIEDE2000 between the two. Found: the IoU of the found lips' box with the hand-drawn one.
+on default sources 0-7 (64 px, 16 spp), the median over the sources (blender_addon.matching.photo_fit.apparent_colour).
+The figure is CIEDE2000 between the two. Found: the IoU of the found lips' box with the hand-drawn one.
 Hair. The patch (hair only) goes in as a crop; the photo's colour is the patch's mean (and median); the estimate's
 is read likewise over the hair of its renders on default hair regions 0-7.
 The Better and Best fits render on default sources of their own (900001 and up), never 0-7.
@@ -69,9 +69,10 @@ def delta_e(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def timed_match(model: Path, path: Path, quality: str, crop=None) -> tuple[dict, float]:
-    """blender_addon.match.match on a file, and its wall time in ms (the model's session made beforehand). Quality
-    ENCODER: the encoder alone on the photo as it is, its light left in (what Fast was before the light was read)."""
-    from blender_addon.match import match
+    """blender_addon.matching.match.match on a file, and its wall time in ms (the model's session made beforehand).
+    Quality ENCODER: the encoder alone on the photo as it is, its light left in (what Fast was before the light was
+    read)."""
+    from blender_addon.matching.match import match
 
     started = time.perf_counter()
     if quality == ENCODER:
@@ -96,7 +97,7 @@ def show(image: np.ndarray, size: int = SHOW) -> np.ndarray:
 
 def lips_cell(reference) -> np.ndarray:
     """What the encoder read (the framed lips), with the lips found outlined."""
-    from blender_addon.thumbnail import outline
+    from blender_addon.ui.thumbnail import outline
 
     cell = show(reference.image)
     if reference.lips is not None and len(reference.lips.outer):
@@ -111,9 +112,9 @@ def lips_cell(reference) -> np.ndarray:
 
 def run_lips(records: list[dict], folder: Path, qualities: list[str], work: Path) -> tuple[list, list, list]:
     """Rows of the lips table, the speed rows (quality, ms, delta E) and the picture rows."""
-    from blender_addon.commands import render
-    from blender_addon.photo_fit import apparent_colour
-    from blender_addon.reference import read_reference
+    from blender_addon.datasets.commands import render
+    from blender_addon.matching.photo_fit import apparent_colour
+    from blender_addon.matching.reference import read_reference
     from vto_core.appearance import body_colour, mean_colour
     from vto_core.imageio import write_image
 
@@ -146,7 +147,7 @@ def run_lips(records: list[dict], folder: Path, qualities: list[str], work: Path
 
 def run_hair(records: list[dict], folder: Path, qualities: list[str], work: Path) -> tuple[list, list, list]:
     """Rows of the hair table, the speed rows and the picture rows (patch | each quality on default regions 0, 1)."""
-    from blender_addon.photo_fit import apparent_colour, region_renderer
+    from blender_addon.matching.photo_fit import apparent_colour, region_renderer
     from vto_core.appearance import body_colour
     from vto_core.colour import srgb_to_lab
     from vto_core.imageio import write_image

@@ -55,8 +55,9 @@ def section(results: dict[int, dict], command: str) -> tuple[str, str]:
             f"{Path(first['model']).name} on {settings['n']} fresh looks (eval seed {settings['seed']}), "
             f"{settings['res']} px, {settings['samples']} spp, twice: the searches render on the reference's own "
             f"source with its Cycles seed, then with that seed + {OTHER_SEED}. Parameter errors are mean absolute "
-            "errors in the encoded unit range. \"Render search\" is the fit (blender_addon.refine.iter_fit), the "
-            "default of `--refine render:B`; \"CMA-ES search\" is `--refine cma:B`.\n\n"
+            "errors in the encoded unit range. \"Render search\" is the fit "
+            "(blender_addon.matching.refine.iter_fit), the default of `--refine render:B`; \"CMA-ES search\" is "
+            "`--refine cma:B`.\n\n"
             + table(header, rows) + f"\n\nReproduce: `{command}`.")
     return first["renderer"], text
 

@@ -57,7 +57,7 @@ def lip_tone_shift(offset: float):
     seen). The source must already be applied; its colour comes back after."""
     import bpy
 
-    from blender_addon.scene_lips import LIP_TONE_SHIFT, LIPS_MATERIAL
+    from blender_addon.renderers.scene_lips import LIP_TONE_SHIFT, LIPS_MATERIAL
     from vto_core.colour import linear_to_srgb, srgb_to_linear
 
     socket = bpy.data.materials[LIPS_MATERIAL].node_tree.nodes["Bare Lips"].inputs["Base Color"]
@@ -73,9 +73,9 @@ def lip_tone_shift(offset: float):
 def measure_look(spec, sampler, prior: np.ndarray, seed: int, index: int, res: int, samples: int,
                  seeds: int) -> dict:
     """Renders of one look: derivatives and noise on `seeds` Cycles seeds -> per-parameter spreads for each reader."""
-    from blender_addon.dataset import source_id
-    from blender_addon.lipstick import render_lipstick
-    from blender_addon.scene_lips import lips_mask
+    from blender_addon.datasets.dataset import source_id
+    from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.renderers.scene_lips import lips_mask
     from vto_core.visibility import (camera_jacobian, masked_block_means, noise_variance, parameter_floor,
                                      render_information, seed_differences)
 

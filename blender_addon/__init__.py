@@ -33,7 +33,7 @@ def register() -> None:
 
 def _ui_modules():
     """The modules holding the panel, operators, preferences and their properties, in registration order."""
-    from . import operators, panels, preferences, properties
+    from .ui import operators, panels, preferences, properties
 
     return [properties, preferences, operators, panels]
 

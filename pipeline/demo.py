@@ -131,7 +131,7 @@ def run_demo(renderer: str, size_name: str, out: Path) -> Path:
 
     def dataset(argv: list[str]):
         def work():
-            from blender_addon.commands import cmd_dataset
+            from blender_addon.datasets.commands import cmd_dataset
 
             cmd_dataset(argv)
         return work

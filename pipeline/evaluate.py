@@ -80,7 +80,7 @@ def is_dark(renderer: str, values: dict[str, float]) -> bool:
     """A very dark product: lipstick max(R, G, B) < 60 of 255; hair: recoloured swatch mean luma < 0.05."""
     if renderer == "lipstick":
         return max(values["red"], values["green"], values["blue"]) < DARK_LIPSTICK
-    from blender_addon.hair import load_swatch
+    from blender_addon.renderers.hair import load_swatch
     from vto_core.colour import luminance
     from vto_core.hair import swatch_target
 
@@ -131,10 +131,10 @@ def methods(settings: EvalSettings) -> dict[str, tuple[str, int]]:
     """The compared methods in table order: name -> (kind, K or B); kinds are 'mean', 'nearest', 'encoder',
     'imitator', 'render' (the fit) and 'cma' (refining the encoder's estimate), 'photo' (what a photo gets: Fast, the
     reference's region statistics fitted through the colour imitator, and Better or Best, then through the renderer on
-    the default sources of blender_addon.photo_fit, never A or B),
+    the default sources of blender_addon.matching.photo_fit, never A or B),
     'render from mean' (CMA-ES)."""
-    from blender_addon.match import parse_refine
-    from blender_addon.photo_fit import QUALITIES
+    from blender_addon.matching.match import parse_refine
+    from blender_addon.matching.photo_fit import QUALITIES
 
     found = {"mean preset": ("mean", 0), "nearest preset": ("nearest", 0), "encoder": ("encoder", 0)}
     for item in settings.refine:
@@ -162,7 +162,7 @@ def photo_region(renderer: str, on_a, reference: np.ndarray, source_a: int, sett
     """(reference, its region mask): what a photo fit reads of a reference on source A (the lips or the hair)."""
     if renderer == "hair":
         return reference, on_a.hair.mask
-    from blender_addon.scene_lips import lips_mask
+    from blender_addon.renderers.scene_lips import lips_mask
 
     return reference, lips_mask(source_a, settings.res, settings.lighting)
 
@@ -204,10 +204,10 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
     """
     from tqdm import tqdm
 
-    from blender_addon.match import SourceRenderer
-    from blender_addon.photo_fit import fit_photo_fast, iter_fit_photo
-    from blender_addon.refine import SIGMA_FROM_MEAN, drain, refine_by_render
-    from vto_core.photo_light import light_of, neutral_photo
+    from blender_addon.matching.match import SourceRenderer
+    from blender_addon.matching.photo_fit import fit_photo_fast, iter_fit_photo
+    from blender_addon.matching.refine import SIGMA_FROM_MEAN, drain, refine_by_render
+    from vto_core.photo.photo_light import light_of, neutral_photo
 
     from .match import imitator_inputs, imitator_refiner
 

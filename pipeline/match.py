@@ -13,7 +13,7 @@ def imitator_refiner(spec: RendererSpec, imitator_run: str):
     try:
         from training.refine import ImitatorRefiner
     except ImportError:
-        from blender_addon.match import NO_IMITATOR
+        from blender_addon.matching.match import NO_IMITATOR
 
         raise VtoError(NO_IMITATOR) from None
     return ImitatorRefiner(imitator_run, spec)
@@ -22,8 +22,8 @@ def imitator_refiner(spec: RendererSpec, imitator_run: str):
 def imitator_inputs(refiner, renderer: str, source, reference: np.ndarray, samples: int, seed: int,
                     lighting: str | None = None):
     """(X, reference) at the imitator's size: X rendered (or loaded) there, the reference resized."""
-    from blender_addon.match import SourceRenderer
-    from blender_addon.reference import at_size
+    from blender_addon.matching.match import SourceRenderer
+    from blender_addon.matching.reference import at_size
 
     height, width = refiner.image_size
     if height != width:
@@ -41,7 +41,7 @@ def refine_with_imitator(spec: RendererSpec, imitator_run: str, source, referenc
 
 
 def cmd_match(argv: list[str]) -> int:
-    """vto match, as blender_addon.match.cmd_match, with --refine imitator:K available."""
-    from blender_addon.match import cmd_match as addon_cmd_match
+    """vto match, as blender_addon.matching.match.cmd_match, with --refine imitator:K available."""
+    from blender_addon.matching.match import cmd_match as addon_cmd_match
 
     return addon_cmd_match(argv, imitator_refine=refine_with_imitator)

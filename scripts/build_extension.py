@@ -105,7 +105,7 @@ license = {{ text = "GPL-3.0-or-later" }}
 dependencies = ["numpy"]
 
 [tool.setuptools]
-packages = ["vto_core"]
+packages = ["vto_core", "vto_core.photo"]
 
 [tool.setuptools.package-data]
 vto_core = ["presets/*.json"]

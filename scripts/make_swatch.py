@@ -5,8 +5,8 @@ import sys
 
 import numpy as np
 
-from blender_addon.hair import SWATCH_PATH, render_hair_source
-from blender_addon.scene_hair import HAIR_MATERIAL, build_hair_scene
+from blender_addon.renderers.hair import SWATCH_PATH, render_hair_source
+from blender_addon.renderers.scene_hair import HAIR_MATERIAL, build_hair_scene
 from vto_core.imageio import write_image
 
 

@@ -45,7 +45,7 @@ def colour_dataset(tmp_path_factory):
 
 def _render(tmp_path_factory, name, n, params, *extra):
     pytest.importorskip("bpy")
-    from blender_addon.commands import cmd_dataset
+    from blender_addon.datasets.commands import cmd_dataset
 
     out = tmp_path_factory.mktemp("data") / name
     assert cmd_dataset(["lipstick", "--out", str(out), "--n", str(n), "--seed", "11", "--res", "16", "--samples", "2",

@@ -1,8 +1,8 @@
 """Gradient refinement at match time: K Adam steps on g in unit space through the frozen imitator I(X, g).
 
 Works on arrays, without bpy: the caller brings the source X and the reference at the imitator's image size
-(blender_addon.match renders X; `vto eval` does the same). The objective is the imitator's: the distance between
-I(X, g) and the reference, as the encoder's rendering loss measures it (the perceptual distance the imitator was
+(blender_addon.matching.match renders X; `vto eval` does the same). The objective is the imitator's: the distance
+between I(X, g) and the reference, as the encoder's rendering loss measures it (the perceptual distance the imitator was
 trained with, VGG features or SSIM+L1), or plain L1.
 """
 

@@ -6,7 +6,7 @@ lipstick does).
 It is the paper's imitator at the level a photo needs (a photo has no source X to render on): trained on real Blender
 renders of the default scene (training/train_colour.py), it lets Fast move the encoder's estimate until the default
 scene would show the photo's colour, in milliseconds. Better and Best fit the same statistics through the real
-renderer (blender_addon.photo_fit).
+renderer (blender_addon.matching.photo_fit).
 """
 
 from __future__ import annotations

@@ -121,8 +121,8 @@ def apply_hair_stage(source: np.ndarray, mask: np.ndarray, gradient: np.ndarray,
                      values: dict[str, float]) -> np.ndarray:
     """Pass 2: LUT, shine, then mix into the source by mask * blend weight * intensity: (H, W, 3) in [0, 1].
 
-    The stage works on display values: a source above 1 (HDR) or below 0 is clipped first, as blender_addon.hair
-    stages it.
+    The stage works on display values: a source above 1 (HDR) or below 0 is clipped first, as
+    blender_addon.renderers.hair stages it.
     """
     if source.shape[:2] != np.shape(mask) or np.shape(mask) != np.shape(gradient):
         raise VtoError(f"source {source.shape[:2]}, mask {np.shape(mask)} and gradient {np.shape(gradient)} differ in size")

@@ -18,7 +18,7 @@ import numpy as np
 
 from vto_core.dataset import write_text_atomic
 
-from .nodes_lipstick import lipstick_material
+from ..renderers.nodes_lipstick import lipstick_material
 
 CATALOG_FILE = "blender_assets.cats.txt"
 CATALOG_PATH = "Match from photo/Lipstick"

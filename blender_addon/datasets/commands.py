@@ -21,16 +21,16 @@ def render(renderer: str, values: dict[str, float], source, res: int = 64, sampl
     """
     values = get_spec(renderer).check_values(values)
     if renderer == "lipstick":
-        from .lipstick import render_lipstick
+        from ..renderers.lipstick import render_lipstick
 
         if not (isinstance(source, int) or str(source).isdigit()):
             raise VtoError(f"lipstick sources are seeds of the default lips scene (an integer), got '{source}'")
         return render_lipstick(values, int(source), res, samples, seed, lighting=lighting)
     if lighting is not None:
-        from .lighting import ONLY_LIPS
+        from ..renderers.lighting import ONLY_LIPS
 
         raise VtoError(ONLY_LIPS)
-    from .hair import render_hair
+    from ..renderers.hair import render_hair
 
     return render_hair(values, source, res, samples, seed)
 
@@ -73,7 +73,7 @@ def _user_scene() -> str | None:
     """The open .blend's active scene if a material of it uses the lipstick group (else the default scene)."""
     import bpy
 
-    from .lipstick import makeup_nodes
+    from ..renderers.lipstick import makeup_nodes
 
     if not bpy.data.filepath:
         return None
@@ -127,7 +127,7 @@ def cmd_dataset(argv: list[str]) -> int:
     if args.workers < 1:
         raise VtoError(f"--workers must be at least 1, got {args.workers}")
     if args.blend:
-        from .blendfile import open_blend
+        from ..blendfile import open_blend
 
         open_blend(args.blend)
     scene = _user_scene() if args.renderer == "lipstick" else None
@@ -137,7 +137,7 @@ def cmd_dataset(argv: list[str]) -> int:
     if args.params == "auto":
         if scene is None:
             raise VtoError("--params auto needs --blend: it models the inputs that visibly change the user's scene")
-        from .scene_params import visible_parameters
+        from ..renderers.scene_params import visible_parameters
 
         params = [row["name"] for row in visible_parameters(bpy.data.scenes[scene], args.res, args.samples)
                   if row["visible"]]

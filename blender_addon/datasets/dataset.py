@@ -20,8 +20,8 @@ from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler
 from vto_core.specs import RendererSpec, get_spec
 
-from .lipstick import linked_inputs, scene_values
-from .render import sample_setting
+from ..renderers.lipstick import linked_inputs, scene_values
+from ..renderers.cycles import sample_setting
 
 _SOURCE_STREAM = 7
 _VARY_STREAM = 8
@@ -79,11 +79,11 @@ class DatasetJob:
         if self.sensitivity and not self.source_images:
             raise VtoError("--sensitivity renders are for the imitator, which needs the source images: drop --no-source")
         if self.renderer == "lipstick" and self.scene is None:
-            from .scene_lips import DEFAULT_LIGHTING
+            from ..renderers.scene_lips import DEFAULT_LIGHTING
 
             self.lighting = self.lighting or DEFAULT_LIGHTING
         elif self.lighting is not None:
-            from .lighting import ONLY_LIPS
+            from ..renderers.lighting import ONLY_LIPS
 
             raise VtoError(ONLY_LIPS)
 
@@ -145,7 +145,7 @@ class SampleRenderer:
         self.photos = None
         self.user_scene = None
         if job.renderer == "hair" and job.source_folder:
-            from .hair import photo_sources
+            from ..renderers.hair import photo_sources
 
             self.photos = photo_sources(job.source_folder)
         if job.renderer == "lipstick" and job.scene:
@@ -196,7 +196,7 @@ class SampleRenderer:
         return len(images) + (source_image is not None and job.renderer == "lipstick")
 
     def _lipstick(self, source: int, cycles_seed: int, values: list[dict]):
-        from .lipstick import render_lipstick
+        from ..renderers.lipstick import render_lipstick
 
         job = self.job
 
@@ -207,13 +207,13 @@ class SampleRenderer:
         bare = draw({**values[0], "opacity": 0.0}) if job.source_images else None
         extra = {}
         if job.masks:
-            from .scene_lips import lips_mask
+            from ..renderers.scene_lips import lips_mask
 
             extra["mask"] = lips_mask(source, job.res, job.lighting).astype(np.float32)
         return bare, [draw(v) for v in values], extra
 
     def _hair(self, source: int, cycles_seed: int, values: list[dict]):
-        from .hair import load_photo_source, render_hair_source, run_hair_stage
+        from ..renderers.hair import load_photo_source, render_hair_source, run_hair_stage
 
         job = self.job
         if self.photos is not None:
@@ -226,7 +226,7 @@ class SampleRenderer:
 
     def _cached_hair_source(self, source: int, cycles_seed: int):
         """The hair source of a group of looks: rendered once, kept in DIR/source_cache (written atomically)."""
-        from .hair import HairSource, render_hair_source
+        from ..renderers.hair import HairSource, render_hair_source
 
         path = Path(self.job.out) / "source_cache" / f"{source}.npz"
         if path.is_file():

@@ -16,11 +16,11 @@ all feed the same function:
     find_hair                   hair, no crop or mask: find the hair around the largest face (default True); a
                                 picture with no face is read whole as a patch of hair; False takes it all as hair
     neutral_light               read the photo's light from the skin beside the lips and take it out (default
-                                True; blender_addon.reference)
+                                True; blender_addon.matching.reference)
     model_path                  the encoder; "" = the add-on preferences' path, else the shipped default
     quality                     FAST (the encoder's estimate; for hair fitted to the hair's colour through the
                                 colour imitator), BETTER, BEST (fitted through the real renderer:
-                                blender_addon.photo_fit)
+                                blender_addon.matching.photo_fit)
 """
 
 from __future__ import annotations
@@ -37,12 +37,12 @@ from vto_core.hair import PHOTO_HAIR
 from vto_core.inference import EncoderSession, cached_session
 from vto_core.specs import RendererSpec, get_spec
 
-from .compat import uses_nodes
+from ..compat import uses_nodes
 from .photo_fit import FIT_QUALITY, NO_REGION, QUALITIES, fit_photo_fast, iter_fit_photo, photo_values
 from .reference import absolute_path, read_reference
 from .refine import drain
 
-MODELS = Path(__file__).parent / "models"
+MODELS = Path(__file__).parent.parent / "models"
 
 
 def default_model(renderer: str) -> Path:
@@ -87,7 +87,7 @@ def load_model(renderer: str, model_path) -> tuple[EncoderSession, RendererSpec]
 
 def lipstick_nodes(material) -> list:
     """The "VTO Lipstick" group nodes of `material` (none when it has no node tree)."""
-    from .nodes_lipstick import GROUP_NAME
+    from ..renderers.nodes_lipstick import GROUP_NAME
 
     if material is None or not uses_nodes(material) or material.node_tree is None:
         return []
@@ -97,8 +97,8 @@ def lipstick_nodes(material) -> list:
 
 def hair_nodes(scene) -> list:
     """The "VTO Hair Swatch" / "VTO Hair Color" group nodes of `scene`'s compositor."""
-    from .compat import compositor_tree
-    from .nodes_hair import COLOR_GROUP, SWATCH_GROUP
+    from ..compat import compositor_tree
+    from ..renderers.nodes_hair import COLOR_GROUP, SWATCH_GROUP
 
     tree = compositor_tree(scene)
     if tree is None:
@@ -169,8 +169,8 @@ def prepare(renderer: str, settings: dict) -> dict:
 def iter_compute(prepared: dict):
     """The encoder's estimate of the photo with its light taken out (Fast; for hair fitted to the hair's colour
     statistics through the colour imitator, milliseconds), or, when the quality asks, fitted to the colour statistics
-    through the real renderer on default sources (blender_addon.photo_fit). A generator: yields renders made so far
-    (none for Fast) and returns parameter -> raw value, inside its range: the modelled ones and what a photo fixes
+    through the real renderer on default sources (blender_addon.matching.photo_fit). A generator: yields renders made so
+    far (none for Fast) and returns parameter -> raw value, inside its range: the modelled ones and what a photo fixes
     (photo_fit.photo_values)."""
     spec, reference = prepared["spec"], prepared["reference"]
     values = encoder = estimate(prepared["session"], spec, reference.image)
@@ -179,7 +179,7 @@ def iter_compute(prepared: dict):
         reference.notes += [note] if note else []
     values = photo_values(spec, values)
     if prepared["quality"] != "FAST":
-        from .scratch import scratch_data
+        from ..scratch import scratch_data
 
         with scratch_data():  # the default scenes the fit renders leave nothing in the artist's .blend
             values = yield from iter_fit_photo(spec, reference.region, encoder, prepared["quality"],
@@ -299,7 +299,7 @@ def add_lipstick_material(obj):
     """A new "VTO Lipstick" material on `obj` (a mesh): a Principled BSDF (the bare lips) -> the lipstick group ->
     Material Output, appended to its slots and made active. Returns the material."""
 
-    from .nodes_lipstick import lipstick_material
+    from ..renderers.nodes_lipstick import lipstick_material
 
     if obj is None or obj.type != "MESH":
         raise VtoError("select a mesh object to add the lipstick material to")
@@ -315,9 +315,9 @@ def add_hair_compositor(scene) -> list:
     stays 1, the whole hair). Returns the two group nodes."""
     import bpy
 
-    from .compat import composite_output, compositor_tree
-    from .hair import SWATCH_PATH
-    from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, swatch_group
+    from ..compat import composite_output, compositor_tree
+    from ..renderers.hair import SWATCH_PATH
+    from ..renderers.nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, swatch_group
 
     tree = compositor_tree(scene, create=True)
     nodes, links = tree.nodes, tree.links

@@ -3,8 +3,8 @@
 OUT receives: estimates/<image>.json (one per photo, written atomically and reused by a rerun while the photo and the
 model are unchanged), presets.json and presets.csv (the shipped presets' format: `vto render --params
 preset:NAME@OUT/presets.json` takes them), assets.blend with blender_assets.cats.txt (lipstick: one asset material per
-product with a rendered preview; hair has none, see blender_addon.assets), sheet.png (one row per product: its first
-photo | a render of its preset) and report.json (products, their photos, and every photo skipped with the reason).
+product with a rendered preview; hair has none, see blender_addon.datasets.assets), sheet.png (one row per product: its
+first photo | a render of its preset) and report.json (products, their photos, and every photo skipped with the reason).
 
 The median is per parameter, in raw units; a wrapping parameter (hair hue) takes the circular median: the photo's
 value whose summed distance around the circle to the others is least.
@@ -119,16 +119,16 @@ def _cache_key(image: Path, fingerprint: str) -> dict:
 
 def fast_values(spec, reference, values: dict[str, float]) -> dict[str, float]:
     """What Fast writes for a photo: the encoder's `values`, for hair fitted through the colour imitator (where the
-    photo's region is known), with what a photo fixes (blender_addon.photo_fit.fit_photo_fast)."""
+    photo's region is known), with what a photo fixes (blender_addon.matching.photo_fit.fit_photo_fast)."""
     if reference.region is not None:
         values = fit_photo_fast(spec, reference.region, {k: values[k] for k in spec.modelled})[0]
     return spec.full_values(photo_values(spec, values))
 
 
 def batch_reference(renderer: str, image: Path):
-    """A photo of the folder made ready as the panel makes it (blender_addon.reference.read_reference): lips found
-    (lipstick), or the hair (its '<name>_mask' beside it wins; else the hair found around a face, or a patch of hair
-    with no face read whole)."""
+    """A photo of the folder made ready as the panel makes it (blender_addon.matching.reference.read_reference): lips
+    found (lipstick), or the hair (its '<name>_mask' beside it wins; else the hair found around a face, or a patch of
+    hair with no face read whole)."""
     mask = next(iter(sorted(image.parent.glob(image.stem + "_mask.*"))), None)
     return read_reference(renderer, {"image_path": str(image), "mask_path": str(mask) if mask else ""})
 
@@ -232,7 +232,7 @@ def parse_args(argv: list[str]):
 
 def render_products(renderer: str, presets: dict, products: dict[str, list[Path]], args) -> dict[str, np.ndarray]:
     """A render of each preset: on default scene `--source`, or (hair) on its first photo if that has a mask."""
-    from .commands import render
+    from ..datasets.commands import render
 
     return {name: render(renderer, values, (renderer == "hair" and photo_source(products[name][0])) or args.source,
                          args.res, args.samples, args.seed) for name, values in presets.items()}
@@ -272,13 +272,13 @@ def cmd_batch(argv: list[str]) -> int:
     report["sheet"] = contact_sheet(out / "sheet.png", references, renders, args.res)
     report["sheet_rows"] = list(renders)
     if spec.renderer == "lipstick":
-        from .assets import write_library
+        from ..datasets.assets import write_library
 
         library = {name: (presets[name], renders[name], []) for name in presets}
         report["materials"] = write_library(out / "assets.blend", library, f"Estimated by {Path(args.model).name}")
         report["asset_library"] = str(out / "assets.blend")
     else:
-        from .assets import HAIR_SKIPPED
+        from ..datasets.assets import HAIR_SKIPPED
 
         report["asset_library"] = None
         report["asset_library_skipped"] = HAIR_SKIPPED

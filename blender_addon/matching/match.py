@@ -2,8 +2,8 @@
 
 Layering: this module needs onnxruntime (the encoder) and, for refinement, bpy (the renderer); it never imports torch
 or `training`, because the extension ships without them. `--refine render:B` (a Gauss-Newton fit through the real
-renderer, blender_addon.refine; `cma:B` the derivative-free CMA-ES search) runs anywhere bpy does, inside Blender
-too. `--refine imitator:K` is the pipeline layer's
+renderer, blender_addon.matching.refine; `cma:B` the derivative-free CMA-ES search) runs anywhere bpy does, inside
+Blender too. `--refine imitator:K` is the pipeline layer's
 (pipeline.match passes its refinement in as `imitator_refine`); without it, as inside Blender, it is one line.
 
 Refinement compares renders of the reference's own source with the reference, so it needs that source: a seed of
@@ -60,7 +60,7 @@ class SourceRenderer:
         self.spec = get_spec(renderer)
         self.res, self.samples, self.seed, self.renders, self.lighting = res, samples, seed, 0, lighting
         if lighting is not None and renderer != "lipstick":
-            from .lighting import ONLY_LIPS
+            from ..renderers.lighting import ONLY_LIPS
 
             raise VtoError(ONLY_LIPS)
         seed_like = isinstance(source, (int, np.integer)) or str(source).isdigit()
@@ -69,7 +69,7 @@ class SourceRenderer:
                 raise VtoError(f"lipstick sources are seeds of the default lips scene (an integer), got '{source}'")
             self.source, self.hair = int(source), None
         else:
-            from .hair import resolve_hair_source
+            from ..renderers.hair import resolve_hair_source
 
             if not seed_like and not Path(source).is_file():
                 raise VtoError(f"hair source {source} is neither a default-scene seed nor a photo")
@@ -79,10 +79,10 @@ class SourceRenderer:
         values = self.spec.check_values(values)
         self.renders += 1
         if self.hair is None:
-            from .lipstick import render_lipstick
+            from ..renderers.lipstick import render_lipstick
 
             return render_lipstick(values, self.source, self.res, self.samples, self.seed, lighting=self.lighting)
-        from .hair import run_hair_stage
+        from ..renderers.hair import run_hair_stage
 
         return run_hair_stage(self.hair, values)
 
@@ -104,11 +104,11 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
           crop=None, mask_path: str | None = None, find_region: bool = True, neutral_light: bool = True) -> dict:
     """Estimate (and refine) the parameters of `image_path`.
 
-    The reference is made ready as the panel makes it (blender_addon.reference.read_reference): a crop, a mask, or
-    the lips or the hair found in the photo (find_region; False takes the image as it is); a hair photo's
+    The reference is made ready as the panel makes it (blender_addon.matching.reference.read_reference): a crop, a mask,
+    or the lips or the hair found in the photo (find_region; False takes the image as it is); a hair photo's
     '<name>_mask' beside it is its mask. With a `source` the image is a render of that source and is read whole.
-    quality: "fast" (the encoder), "better" or "best" (the photo fit of blender_addon.photo_fit, no source needed).
-    refine: against a known source instead ('render:B', 'cma:B', 'imitator:K').
+    quality: "fast" (the encoder), "better" or "best" (the photo fit of blender_addon.matching.photo_fit, no source
+    needed). refine: against a known source instead ('render:B', 'cma:B', 'imitator:K').
     Returns {'renderer', 'params': all parameters (raw values), 'refined', 'note', 'notes', 'encoder_ms'} (a photo:
     also 'fast_ms', the encoder's estimate fitted through the colour imitator) and, when
     refined, 'method', 'refine_ms', 'renders' or 'steps' (and 'loss_start', 'loss' for refine). res: the render size
@@ -137,7 +137,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
     if source is None and spec.renderer == "hair" and mask_path is None and crop is None:
         beside = photo_source(Path(image_path))
         if beside:
-            from .hair import mask_path_for
+            from ..renderers.hair import mask_path_for
 
             mask_path = str(mask_path_for(Path(image_path)))
     settings = {"image_path": image_path, "crop": crop, "mask_path": mask_path,
@@ -199,7 +199,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
         on_source = SourceRenderer(spec.renderer, source, res, samples, seed, lighting)
         held = None
         if on_source.hair is not None and Path(str(source)).resolve() == Path(image_path).resolve():
-            from .hair import own_source_held
+            from ..renderers.hair import own_source_held
 
             held = own_source_held(spec, spec.values(spec.denormalise(start_unit)))
         refined = refine_by_render(lambda u: on_source(spec.values(spec.denormalise(u))), at_size(reference, res, res),
@@ -224,8 +224,8 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
 
     The same function serves `blender -b [FILE] -c vto match`; there imitator:K ends in one line (no torch). The
     console script runs it through pipeline.match, which passes `imitator_refine` (match's).
-    With --material the estimate goes into that material's "VTO Lipstick" group inputs (blender_addon.apply, the
-    operator's code) and --save writes the .blend atomically; on any error the file is left as it was.
+    With --material the estimate goes into that material's "VTO Lipstick" group inputs (blender_addon.matching.apply,
+    the operator's code) and --save writes the .blend atomically; on any error the file is left as it was.
     """
     parser = ArgumentParser(prog="vto match", description="estimate a renderer's parameters from a reference image")
     parser.add_argument("--model", default=None, help="an encoder exported with `vto export` (with --material: "
@@ -307,7 +307,7 @@ def parse_crop(text: str | None) -> tuple[float, ...] | None:
 
 
 def match_material_cli(args, out: Path | None) -> int:
-    """`vto match --material NAME --save`: the operator's code (blender_addon.apply), then an atomic save."""
+    """`vto match --material NAME --save`: the operator's code (blender_addon.matching.apply), then an atomic save."""
     if args.refine != "none":
         raise VtoError("--material takes --quality (the panel's choice), not --refine: the material's photo has no "
                        "source to render")
@@ -315,7 +315,7 @@ def match_material_cli(args, out: Path | None) -> int:
     import bpy
 
     from .apply import match_into_material
-    from .blendfile import open_blend, save_blend_atomic
+    from ..blendfile import open_blend, save_blend_atomic
 
     open_blend(args.blend)
     blend = bpy.data.filepath

@@ -1,15 +1,15 @@
-"""Fast, Better and Best for a photo whose scene is unknown (its light already taken out, blender_addon.reference):
-the encoder's estimate (lips' Fast), or that estimate fitted to what the photo shows of the material, through the
-colour imitator (hair's Fast) or the real renderer on default-scene sources (Better, Best).
+"""Fast, Better and Best for a photo whose scene is unknown (its light already taken out,
+blender_addon.matching.reference): the encoder's estimate (lips' Fast), or that estimate fitted to what the photo shows
+of the material, through the colour imitator (hair's Fast) or the real renderer on default-scene sources (Better, Best).
 
 A photo of real lips (or of an artist's reference hair) has no source X to render the estimate on, so the render
 cannot be compared with it pixel by pixel. What can be compared is the region's colour statistics
 (vto_core.appearance: its mean colour, the spread of its lightness up to the highlights, its chroma): the fits
 (Levenberg-Marquardt from the encoder's estimate or Fast's, with a pull back towards it) move the parameters until
 the default scene's lips (or hair) show the photo's statistics. Fast asks the colour imitator
-(vto_core.colour_imitator) what the default scene would show; Better and Best render it (blender_addon.refine's fit),
-the lips on the sources whose skin looks most like the photo's, their skin and bare lips toned so the render's skin
-shows the photo's skin colour (the scene's light and skin fitted as far as the skin shows them). Those sources are
+(vto_core.colour_imitator) what the default scene would show; Better and Best render it (blender_addon.matching.refine's
+fit), the lips on the sources whose skin looks most like the photo's, their skin and bare lips toned so the render's
+skin shows the photo's skin colour (the scene's light and skin fitted as far as the skin shows them). Those sources are
 seeds of their own (LIPS_POOL, FIT_SOURCES), never the ones the benchmarks measure the estimate on.
 """
 
@@ -67,7 +67,7 @@ def parameter_difference(unit: np.ndarray, start: np.ndarray, wraps: np.ndarray)
 
 @functools.lru_cache(maxsize=16)
 def _hair_region(source: int, res: int, samples: int):
-    from .hair import render_hair_source
+    from ..renderers.hair import render_hair_source
 
     return render_hair_source(source, res, samples, 0)
 
@@ -79,12 +79,12 @@ def region_renderer(renderer: str, source: int, res: int = FIT_RES, samples: int
     and bare lips in `tones`, sRGB (3,) each, where given), or the hair of a hair region (rendered once per
     process)."""
     if renderer == "lipstick":
-        from .lipstick import render_lipstick
-        from .scene_lips import lips_mask
+        from ..renderers.lipstick import render_lipstick
+        from ..renderers.scene_lips import lips_mask
 
         mask = lips_mask(source, res)
         return lambda values: (render_lipstick(values, source, res, samples, 0, tones=tones), mask)
-    from .hair import run_hair_stage
+    from ..renderers.hair import run_hair_stage
 
     hair = _hair_region(source, res, samples)
     return lambda values: (run_hair_stage(hair, values), hair.mask)
@@ -97,12 +97,13 @@ def photo_values(spec: RendererSpec, values: dict[str, float]) -> dict[str, floa
 
 def fit_start(spec: RendererSpec, start: dict[str, float]) -> tuple[np.ndarray, np.ndarray, dict[int, float] | None]:
     """Where a photo fit starts: the unit vector (m,) of `start` with what a photo fixes, the wrapping dimensions (m,)
-    and the held ones (hair: intensity and blend at full effect where modelled, blender_addon.hair.own_source_held)."""
+    and the held ones (hair: intensity and blend at full effect where modelled,
+    blender_addon.renderers.hair.own_source_held)."""
     unit = spec.normalise(spec.vector(photo_values(spec, start)))
     wraps = np.array([p.wraps for p in spec.modelled_params])
     if spec.renderer != "hair":
         return unit, wraps, None
-    from .hair import own_source_held
+    from ..renderers.hair import own_source_held
 
     return unit, wraps, own_source_held(spec, start)
 
@@ -116,8 +117,8 @@ def iter_lips_pool(res: int, samples: int):
     after each source (the UI stays live; these renders are not the fit's), returns the pool."""
     from vto_core.appearance import skin_colour, skin_light
 
-    from .lipstick import render_lipstick
-    from .scene_lips import lips_mask
+    from ..renderers.lipstick import render_lipstick
+    from ..renderers.scene_lips import lips_mask
 
     if (res, samples) not in _LIPS_POOLS:
         pool = []
@@ -136,7 +137,7 @@ def fitted_tones(seed: int, rendered_skin: np.ndarray, photo_skin: np.ndarray) -
     channel (within MAX_TONE_RATIO), the lips the scene's typical lips for that skin (scene_lips.lip_tone)."""
     from vto_core.colour import linear_to_srgb, srgb_to_linear
 
-    from .scene_lips import lip_tone, source_tones
+    from ..renderers.scene_lips import lip_tone, source_tones
 
     ratio = np.clip(np.asarray(photo_skin, np.float64) / np.maximum(rendered_skin, 1e-6), 1 / MAX_TONE_RATIO,
                     MAX_TONE_RATIO)
@@ -222,7 +223,7 @@ def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
 
 def colour_imitator_path(renderer: str) -> Path:
     """The shipped colour imitator of `renderer`: blender_addon/models/<renderer>_colour.onnx."""
-    return Path(__file__).parent / "models" / f"{renderer}_colour.onnx"
+    return Path(__file__).parent.parent / "models" / f"{renderer}_colour.onnx"
 
 
 def fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],

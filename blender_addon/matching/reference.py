@@ -19,14 +19,14 @@ import numpy as np
 
 from vto_core.errors import VtoError
 from vto_core.imageio import read_image, resize
-from vto_core.photo_light import light_of, neutral_photo
+from vto_core.photo.photo_light import light_of, neutral_photo
 
 MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that an estimate is made from
 # The default lips scene frames the lips in a square whose width they span this share of (lips_mask over sources 0-7
 # at 64 px: 0.73-0.84). A lips mask is framed alike, so the encoder sees lips at the scale it was trained on: the
 # mask's own box, stretched to a square, gave 1.7-2.5x the colour error (benchmarks/results/mask_crop.md).
 LIPS_WIDTH_SHARE = 0.78
-MODELS = Path(__file__).parent / "models"
+MODELS = Path(__file__).parent.parent / "models"
 FACE_DETECTOR, FACE_LANDMARKS = "face_detector.onnx", "face_landmarks.onnx"  # blender_addon/models/face_locator.md
 PERSON_SEGMENTER = "person_segmenter.onnx"  # blender_addon/models/person_segmenter.md
 NO_FACE_LIGHT = "no face: the photo's light is kept"  # a hair photo with no face to read its light from
@@ -174,10 +174,10 @@ class Reference:
 
     image: (H, W, 3) what the encoder reads (lips framed as the default scene frames them; a square of hair).
     region: (rgb (h, w, 3), mask (h, w)) the pixels of the lips or hair, for a fit of their colour statistics
-    (blender_addon.photo_fit); None when unknown. lips: what the lips locator found, in the coordinates of `whole`
-    (or None); hair: what the hair locator found (or None). box: (x, y, w, h) of `image` inside `whole`. notes: what
-    the user should be told. light: the photo's light (vto_core.photo_light.PhotoLight) that was taken out of `image`
-    and `region`, or None where the photo was read as it is (`whole` is always as given).
+    (blender_addon.matching.photo_fit); None when unknown. lips: what the lips locator found, in the coordinates of
+    `whole` (or None); hair: what the hair locator found (or None). box: (x, y, w, h) of `image` inside `whole`. notes:
+    what the user should be told. light: the photo's light (vto_core.photo.photo_light.PhotoLight) that was taken out
+    of `image` and `region`, or None where the photo was read as it is (`whole` is always as given).
     """
 
     image: np.ndarray
@@ -187,29 +187,29 @@ class Reference:
     lips: object = None
     notes: list[str] = field(default_factory=list)
     light: object = None
-    hair: object = None  # vto_core.hair_locator.HairFound where the hair was found in a portrait
+    hair: object = None  # vto_core.photo.hair_locator.HairFound where the hair was found in a portrait
 
 
 def read_face(image: np.ndarray):
-    """The largest face of (H, W, 3) (vto_core.face_reader.FaceRead) with the shipped face models, or None."""
-    from vto_core.face_reader import cached_reader
+    """The largest face of (H, W, 3) (vto_core.photo.face_reader.FaceRead) with the shipped face models, or None."""
+    from vto_core.photo.face_reader import cached_reader
 
     return cached_reader(MODELS / FACE_DETECTOR, MODELS / FACE_LANDMARKS).read(image)
 
 
 def locate_lips(image: np.ndarray, face=None):
-    """vto_core.lips_locator.LipsFound for (H, W, 3) with the shipped face models (loaded once), from `face` where it
-    was read already; VtoError 'no lips found ...' where there are none."""
-    from vto_core.lips_locator import cached_locator
+    """vto_core.photo.lips_locator.LipsFound for (H, W, 3) with the shipped face models (loaded once), from `face` where
+    it was read already; VtoError 'no lips found ...' where there are none."""
+    from vto_core.photo.lips_locator import cached_locator
 
     return cached_locator(MODELS / FACE_DETECTOR, MODELS / FACE_LANDMARKS).locate(image, face)
 
 
 def locate_hair(image: np.ndarray, face, light=None):
-    """vto_core.hair_locator.HairFound: the hair of `face`'s person in (H, W, 3), with the shipped person model, its
-    colours read with the photo's `light` taken out (None: as they are); VtoError 'no hair found ...' where there is
+    """vto_core.photo.hair_locator.HairFound: the hair of `face`'s person in (H, W, 3), with the shipped person model,
+    its colours read with the photo's `light` taken out (None: as they are); VtoError 'no hair found ...' where there is
     none."""
-    from vto_core.hair_locator import cached_hair_locator
+    from vto_core.photo.hair_locator import cached_hair_locator
 
     return cached_hair_locator(MODELS / PERSON_SEGMENTER).locate(image, face, light)
 
@@ -245,7 +245,7 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     the locator finds (framed likewise). find_lips=False takes the whole image (or the crop) as it is. A crop in which
     the locator finds no lips is taken as the artist drew it: the lips where the default scene frames them.
     neutral_light: where the lips are known, the photo's light is read from the skin beside them and taken out
-    (vto_core.photo_light), so the estimate is of the product, not of the light it was photographed in."""
+    (vto_core.photo.photo_light), so the estimate is of the product, not of the light it was photographed in."""
     height, width = whole.shape[:2]
     box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
     notes, lips = [], None
@@ -255,7 +255,7 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
         except VtoError:
             if crop is None:
                 raise
-            from vto_core.lips_locator import DEFAULT_LENS, close_up
+            from vto_core.photo.lips_locator import DEFAULT_LENS, close_up
 
             lips = close_up((box[3], box[2]), DEFAULT_LENS, 0.0, "no lips found in the crop: the crop is taken as the "
                             "lips, framed as the default scene frames them")
@@ -311,7 +311,7 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     neutral_light: where the whole photo shows a face, its light is read from the skin beside the lips and taken
     out (a hair colour is the hair's under neutral light); a photo without one (a patch of hair) is read as it is."""
     from vto_core.hair import hair_square
-    from vto_core.hair_locator import patch_problem
+    from vto_core.photo.hair_locator import patch_problem
 
     height, width = whole.shape[:2]
     box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)

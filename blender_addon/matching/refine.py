@@ -55,7 +55,7 @@ def iter_refine_by_render(render_unit: Callable[[np.ndarray], np.ndarray], refer
 
     render_unit: (m,) unit vector -> (H, W, 3) image like `reference`; wraps: (m,) bool, dimensions that wrap (hue).
     held: {dimension: unit value} rendered at that value and left out of the search; the result keeps the start's
-    values there (see blender_addon.hair.own_source_held for why).
+    values there (see blender_addon.renderers.hair.own_source_held for why).
     search: "fit" (iter_fit, the default; the mse objective only; a budget under m + 2 renders goes to CMA-ES) or
     "cma" (iter_cma_search; sigma is its first step).
     The start is rendered first and kept unless something renders closer, so the result is never worse than the

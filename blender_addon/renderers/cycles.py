@@ -15,7 +15,7 @@ import numpy as np
 from vto_core.colour import linear_to_srgb
 from vto_core.errors import VtoError
 
-from .compat import IMAGE_FORMAT_FIELDS, canonical_pass_name, set_exr_output, set_file_format
+from ..compat import IMAGE_FORMAT_FIELDS, canonical_pass_name, set_exr_output, set_file_format
 
 # tmpfs when there is one: the render round-trips through a file because headless
 # Render Results hold no pixels.

@@ -21,7 +21,7 @@ import numpy as np
 from vto_core.envlight import DistantLight, split_environment
 from vto_core.portrait_light import portrait_light
 
-from .compat import enable_nodes
+from ..compat import enable_nodes
 
 HDRI_WIDTH = 256  # 0.07 s per 64 px render instead of 1.1 s at full size (importance map rebuilt each render)
 ENV_LIGHTS = 4

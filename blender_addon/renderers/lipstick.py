@@ -9,9 +9,9 @@ from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.specs import get_spec
 
-from .compat import uses_nodes
+from ..compat import uses_nodes
 from .nodes_lipstick import GROUP_NAME
-from .render import configure_cycles, render_passes, render_user_scene, to_display
+from .cycles import configure_cycles, render_passes, render_user_scene, to_display
 from .scene_lips import applied, apply_source, build_lips_scene, use_lighting
 
 

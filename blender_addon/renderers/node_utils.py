@@ -8,7 +8,7 @@ from collections.abc import Iterable
 
 from vto_core.specs import ParamSpec
 
-from .compat import compositor_idname
+from ..compat import compositor_idname
 
 # Bumped whenever a builder changes what it builds, so older groups in saved files are rebuilt.
 BUILDER_VERSION = 3

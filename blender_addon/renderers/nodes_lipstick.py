@@ -6,7 +6,7 @@ import bpy
 
 from vto_core.specs import get_spec
 
-from .compat import enable_nodes
+from ..compat import enable_nodes
 from .node_utils import Builder, add_spec_inputs, get_or_create_group
 
 GROUP_NAME = "VTO Lipstick"

@@ -9,9 +9,9 @@ import numpy as np
 from vto_core.colour import srgb_to_linear
 from vto_core.specs import get_spec
 
-from .compat import enable_nodes
+from ..compat import enable_nodes
 from .nodes_lipstick import lipstick_group
-from .render import configure_cycles, render_passes
+from .cycles import configure_cycles, render_passes
 
 FURNACE_SCENE = "VTO Furnace"
 

@@ -13,7 +13,7 @@ import numpy as np
 from vto_core.colour import hsv_to_rgb, srgb_to_linear
 from vto_core.errors import VtoError
 
-from .compat import enable_nodes
+from ..compat import enable_nodes
 from .lighting import build_hdri_world, randomise_hdri
 from .scene_lips import SKIN_TONES
 

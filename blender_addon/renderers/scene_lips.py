@@ -14,7 +14,7 @@ from vto_core.colour import srgb_to_linear
 
 from vto_core.errors import VtoError
 
-from .compat import enable_nodes
+from ..compat import enable_nodes
 from .lighting import LIGHTINGS, build_hdri_world, randomise_hdri, randomise_portrait
 from .nodes_lipstick import lipstick_material
 
@@ -249,7 +249,7 @@ def use_lighting(scene: bpy.types.Scene, lighting: str | None = None) -> None:
 def lips_mask(source_seed: int, res: int, lighting: str | None = None) -> np.ndarray:
     """Where the lips are in a res x res render of the default scene with `source_seed`, lit the `lighting` way (the
     camera's jitter is drawn after the light): (res, res) bool."""
-    from .render import configure_cycles, render_passes
+    from .cycles import configure_cycles, render_passes
 
     scene = build_lips_scene()
     use_lighting(scene, lighting)

@@ -11,7 +11,7 @@ from vto_core.errors import VtoError
 from vto_core.specs import get_spec
 from vto_core.visibility import VISIBLE_RATIO, parameter_visibility, quartile_values
 
-from .blendfile import open_blend
+from ..blendfile import open_blend
 from .lipstick import (linked_inputs, makeup_nodes, material_name, render_lipstick, scene_values,
                        set_lipstick_values)
 

@@ -1,5 +1,5 @@
-"""Operators of Match from photo: thin wrappers over blender_addon.apply (one class per operator, the docstring is
-the tooltip). Each is undoable in one step; on bad input it reports one line and changes nothing."""
+"""Operators of Match from photo: thin wrappers over blender_addon.matching.apply (one class per operator, the docstring
+is the tooltip). Each is undoable in one step; on bad input it reports one line and changes nothing."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, StringPro
 
 from vto_core.errors import VtoError
 
-from . import apply
-from .photo_fit import OFFERED
+from ..matching import apply
+from ..matching.photo_fit import OFFERED
 from .preferences import preference_model
 from .properties import QUALITY_ITEMS, remember, settings_dict
 

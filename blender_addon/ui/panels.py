@@ -10,8 +10,9 @@ import bpy
 
 from vto_core.specs import get_spec
 
-from . import apply, thumbnail, warmup
-from .photo_fit import FIT_QUALITY, FIT_SECONDS, NOT_OFFERED, OFFERED
+from ..matching import apply
+from . import thumbnail, warmup
+from ..matching.photo_fit import FIT_QUALITY, FIT_SECONDS, NOT_OFFERED, OFFERED
 from .operators import VTO_OT_add_hair_compositor, VTO_OT_add_lipstick_material, VTO_OT_match_from_photo
 from .preferences import preference_model
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import bpy
 from bpy.props import StringProperty
 
-PACKAGE = __package__  # "blender_addon", or the extension's package name once installed
+PACKAGE = __package__.rpartition(".")[0]  # "blender_addon", or the extension's package name once installed
 
 
 class VTO_AP_preferences(bpy.types.AddonPreferences):

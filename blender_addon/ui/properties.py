@@ -49,7 +49,7 @@ class VTO_PG_match_settings(bpy.types.PropertyGroup):
 
 
 def settings_dict(props: VTO_PG_match_settings) -> dict:
-    """The panel's settings as the plain dict blender_addon.apply takes."""
+    """The panel's settings as the plain dict blender_addon.matching.apply takes."""
     settings = {"quality": props.quality, "model_path": props.model_path, "mask_path": props.mask_path,
                 "crop": tuple(props.crop) if props.use_crop else None, "find_lips": props.find_lips,
                 "find_hair": props.find_hair}

@@ -9,8 +9,8 @@ import numpy as np
 
 from vto_core.errors import VtoError
 
-from .reference import (absolute_path, crop_box, datablock_pixels, hair_reference, lips_frame, lips_reference,
-                        load_reference, read_mask)
+from ..matching.reference import (absolute_path, crop_box, datablock_pixels, hair_reference, lips_frame, lips_reference,
+                                  load_reference, read_mask)
 
 SIZE = 128  # pixels of the square thumbnail
 CROP_COLOUR = (1.0, 0.78, 0.1)  # the crop's outline: Blender's selection orange-yellow
@@ -57,8 +57,8 @@ def outline(canvas: np.ndarray, points: np.ndarray, colour, width: int = 2) -> N
 
 def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None, hair=None) -> np.ndarray:
     """(SIZE, SIZE, 4) RGBA, top row first: the reference fitted and centred on grey, the mask dimmed, the crop drawn,
-    the lips found (vto_core.lips_locator.LipsFound: their outer and inner contours, and the frame the encoder
-    reads) and the hair found (vto_core.hair_locator.HairFound: its outline)."""
+    the lips found (vto_core.photo.lips_locator.LipsFound: their outer and inner contours, and the frame the encoder
+    reads) and the hair found (vto_core.photo.hair_locator.HairFound: its outline)."""
     from vto_core.imageio import resize
 
     height, width = reference.shape[:2]

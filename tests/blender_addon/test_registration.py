@@ -28,7 +28,7 @@ def test_register_adds_the_cli_command_and_unregister_removes_it(capsys):
 
 USER_SCENE = r'''
 import bpy, sys
-from blender_addon.nodes_lipstick import lipstick_group
+from blender_addon.renderers.nodes_lipstick import lipstick_group
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 scene.name = "Product Shot"

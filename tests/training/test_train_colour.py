@@ -16,7 +16,7 @@ from vto_core.errors import VtoError  # noqa: E402
 @pytest.fixture(scope="module")
 def hair_looks(tmp_path_factory):
     """96 looks of the hair stage on 6 default hair regions (16 px): the renders with their hair masks."""
-    from blender_addon.commands import cmd_dataset
+    from blender_addon.datasets.commands import cmd_dataset
 
     out = tmp_path_factory.mktemp("colour") / "hair"
     assert cmd_dataset(["hair", "--out", str(out), "--n", "96", "--seed", "3", "--res", "16", "--samples", "2",

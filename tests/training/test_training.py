@@ -304,7 +304,7 @@ def test_the_encoder_refuses_an_imitator_for_another_spec_or_size(lipstick_datas
 
 
 def test_an_encoder_trains_on_a_dataset_without_sources_and_the_imitator_refuses_it(imitator_run, tmp_path):
-    from blender_addon.commands import cmd_dataset
+    from blender_addon.datasets.commands import cmd_dataset
 
     data = tmp_path / "lean"  # the imitator's spec and size, so only the missing sources can refuse it
     assert cmd_dataset(["lipstick", "--out", str(data), "--n", "12", "--res", "16", "--samples", "1", "--params",
@@ -328,7 +328,7 @@ def test_an_encoder_trains_on_a_dataset_without_sources_and_the_imitator_refuses
 
 def test_mouth_views_train_a_lipstick_encoder_and_are_refused_for_hair(lipstick_dataset, tmp_path):
     pytest.importorskip("bpy")
-    from blender_addon.commands import cmd_dataset
+    from blender_addon.datasets.commands import cmd_dataset
 
     config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=3", "loss=graphics", "mouth_views=true",
                                                                  "photo_views=true", "augment=true"])

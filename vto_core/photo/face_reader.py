@@ -1,5 +1,5 @@
 """Read a face in a photo: MediaPipe's BlazeFace detector and 468-point face mesh on onnxruntime, shared by the lips
-(vto_core.lips_locator) and the hair (vto_core.hair_locator).
+(vto_core.photo.lips_locator) and the hair (vto_core.photo.hair_locator).
 
 The models are blender_addon/models/face_detector.onnx and face_landmarks.onnx (model card: face_locator.md, made by
 scripts/convert_face_models.py). numpy only at import; onnxruntime is imported when a FaceReader is made. All the
@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import VtoError
-from .inference import cpu_session, file_key
+from ..errors import VtoError
+from ..inference import cpu_session, file_key
 
 DETECTOR_SIZE = 128  # BlazeFace short range: (1, 3, 128, 128) in [-1, 1]
 MESH_SIZE = 192  # face mesh: (1, 3, 192, 192) in [0, 1]

@@ -3,8 +3,8 @@ seed above the forehead through the pixels whose colour is the seed's rather tha
 background's (a Gaussian each in CIELAB, fitted on this photo).
 
 The model is blender_addon/models/person_segmenter.onnx (model card: person_segmenter.md, made by
-scripts/convert_selfie_model.py). The face comes from vto_core.face_reader. numpy only at import (onnxruntime when a
-HairLocator is made), and no scipy, so this runs inside Blender's extension. Coordinates as in face_reader.
+scripts/convert_selfie_model.py). The face comes from vto_core.photo.face_reader. numpy only at import (onnxruntime when
+a HairLocator is made), and no scipy, so this runs inside Blender's extension. Coordinates as in face_reader.
 
 All the work is done on the head's region at WORK_FACE_HEIGHT px per face height, then the hair's probability is
 sampled back onto the photo's pixels of that region, so the cost does not grow with the photo.
@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .colour import srgb_to_lab
-from .errors import VtoError
+from ..colour import srgb_to_lab
+from ..errors import VtoError
 from .face_reader import FaceRead, as_rgb, polygon_mask, reduce, sample_bilinear, tight_box, warp
-from .inference import cpu_session, file_key
+from ..inference import cpu_session, file_key
 from .photo_light import PhotoLight, neutral_photo
 
 SEGMENTER_SIZE = 256  # selfie segmentation: (1, 3, 256, 256) display RGB in [0, 1] -> (1, 1, 256, 256) person
@@ -110,7 +110,7 @@ class HairLocator:
     def locate(self, image: np.ndarray, face: FaceRead, light: PhotoLight | None = None) -> HairFound:
         """(H, W, 3) display sRGB and its largest face (FaceReader.read) -> the hair; VtoError 'no hair found ...' for
         a bald head, a hat, hair out of frame, or too little hair to read. light: the photo's light
-        (vto_core.photo_light), taken out of the head's colours before they are modelled and judged, so a warm or
+        (vto_core.photo.photo_light), taken out of the head's colours before they are modelled and judged, so a warm or
         cool light does not make hair look like skin or a hat (the limits here are a neutral studio's)."""
         image = as_rgb(image)
         height, width = image.shape[:2]

@@ -1,5 +1,5 @@
-"""Find the lips in a photo: the lip contours of the face mesh (vto_core.face_reader), or, where no face shows, a test
-of whether the picture is a close-up of lips. numpy only, so this runs inside Blender's extension.
+"""Find the lips in a photo: the lip contours of the face mesh (vto_core.photo.face_reader), or, where no face shows, a
+test of whether the picture is a close-up of lips. numpy only, so this runs inside Blender's extension.
 
 Coordinates: x, y in pixels from the top-left corner of the image; pixel (i, j) covers [i, i+1) x [j, j+1), so its
 centre is at (i + 0.5, j + 0.5).
@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .colour import srgb_to_lab
-from .errors import VtoError
+from ..colour import srgb_to_lab
+from ..errors import VtoError
 from .face_reader import FaceRead, FaceReader, as_rgb, cached_reader, polygon_mask, reduce, tight_box
 
 # The canonical MediaPipe FACEMESH_LIPS loops (face_landmarks_to_render_data_calculator.cc), each in order.
@@ -160,7 +160,7 @@ def lens_templates(rows: int, cols: int) -> tuple[np.ndarray, tuple]:
 
 
 class LipsLocator:
-    """The lips of one image from its face (vto_core.face_reader), or, where no face shows, the close-up test."""
+    """The lips of one image from its face (vto_core.photo.face_reader), or, where no face shows, the close-up test."""
 
     def __init__(self, reader: FaceReader):
         self.reader = reader
@@ -201,5 +201,5 @@ def close_up(shape: tuple[int, int], lens: tuple[float, float, float, float], sc
 
 
 def cached_locator(detector_path: str | Path, landmarks_path: str | Path) -> LipsLocator:
-    """A LipsLocator on the cached FaceReader of these model files (vto_core.face_reader.cached_reader)."""
+    """A LipsLocator on the cached FaceReader of these model files (vto_core.photo.face_reader.cached_reader)."""
     return LipsLocator(cached_reader(detector_path, landmarks_path))

@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .colour import linear_to_srgb, srgb_to_linear
-from .portrait_light import WARM_COOL
+from ..colour import linear_to_srgb, srgb_to_linear
+from ..portrait_light import WARM_COOL
 
 # The default lips scene's skin beside the lips (vto_core.appearance.skin_colour of 64 px, 16 spp renders of default
 # sources 910000-910095, bare lips): the mean and covariance of its log linear RGB. Reproduce:
@@ -117,7 +117,7 @@ def light_from_skin(skin_linear: np.ndarray | None) -> PhotoLight:
 
 def light_of(image: np.ndarray, lips: np.ndarray) -> PhotoLight:
     """The light of a photo (H, W, 3) read from the skin around its lips (mask (H, W))."""
-    from .appearance import skin_colour
+    from ..appearance import skin_colour
 
     return light_from_skin(skin_colour(image, lips))
 

@@ -15,8 +15,8 @@ import pytest
 pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
-from blender_addon.commands import cmd_dataset  # noqa: E402
-from blender_addon.lipstick import render_lipstick  # noqa: E402
+from blender_addon.datasets.commands import cmd_dataset  # noqa: E402
+from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
 from vto_core import cli  # noqa: E402
 from vto_core.dataset import DatasetReader, shard_from_env, shard_range  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
@@ -177,7 +177,7 @@ def test_scheduler_environment_selects_the_shard():
 
 
 def test_hair_dataset_from_a_photo_folder(tmp_path):
-    from blender_addon.hair import render_hair_source
+    from blender_addon.renderers.hair import render_hair_source
     from vto_core.imageio import write_image
 
     photos = tmp_path / "photos"
@@ -217,7 +217,7 @@ def test_no_source_skips_the_x_render_and_keeps_every_other_byte(tmp_path, capsy
 
 
 def test_no_source_counts_one_render_a_lipstick_look():
-    from blender_addon.dataset import DatasetJob, renders_per_sample
+    from blender_addon.datasets.dataset import DatasetJob, renders_per_sample
 
     assert renders_per_sample(DatasetJob("lipstick", "x", 1)) == 2
     assert renders_per_sample(DatasetJob("lipstick", "x", 1, source_images=False)) == 1

@@ -11,7 +11,7 @@ import pytest
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 pytest.importorskip("bpy")
 
-from blender_addon.batch import circular_median, csv_grouping, group_products, median_values  # noqa: E402
+from blender_addon.matching.batch import circular_median, csv_grouping, group_products, median_values  # noqa: E402
 from vto_core import cli  # noqa: E402
 from vto_core.imageio import read_image, write_image  # noqa: E402
 from vto_core.inference import EncoderSession  # noqa: E402
@@ -19,7 +19,7 @@ from vto_core.params_io import parse_params  # noqa: E402
 from vto_core.presets import load_presets  # noqa: E402
 from vto_core.specs import get_spec  # noqa: E402
 
-MODEL = str(Path(__file__).resolve().parents[2] / "blender_addon" / "models" / "lipstick_encoder.onnx")
+MODEL = str(Path(__file__).resolve().parents[3] / "blender_addon" / "models" / "lipstick_encoder.onnx")
 RES, SAMPLES = 32, 4
 PHOTOS = {"classic-red_s1": ("Classic Red", 1), "classic-red_s2": ("Classic Red", 2),
           "classic-red_s3": ("Classic Red", 3),
@@ -33,7 +33,7 @@ BAD = {"broken.png": "cannot read image", "tiny.png": "at least 8x8", "notes.txt
 def photos(tmp_path_factory):
     """6 renders (2 presets, several sources; 'stray' matches no product) and 3 unusable files: a corrupt PNG, a 1x1
     image, a text file."""
-    from blender_addon.commands import render
+    from blender_addon.datasets.commands import render
 
     folder = tmp_path_factory.mktemp("batch-photos")
     presets = load_presets("lipstick")
@@ -60,7 +60,7 @@ def batch_out(photos, tmp_path_factory):
 
 def photo_estimate(session, renderer: str, path: Path) -> dict:
     """What the panel's Fast gives a photo: its lips (or hair) read, the encoder, the colour imitator's fit."""
-    from blender_addon.batch import batch_reference, fast_values
+    from blender_addon.matching.batch import batch_reference, fast_values
 
     reference = batch_reference(renderer, path)
     return fast_values(session.spec, reference, session.predict(reference.image)[0])
@@ -208,8 +208,8 @@ def tiny_hair_encoder(path: Path) -> str:
 
 
 def test_hair_batch_takes_circular_medians_and_skips_the_asset_library(tmp_path):
-    from blender_addon.assets import HAIR_SKIPPED
-    from blender_addon.hair import render_hair_source, run_hair_stage
+    from blender_addon.datasets.assets import HAIR_SKIPPED
+    from blender_addon.renderers.hair import render_hair_source, run_hair_stage
 
     photos, presets = tmp_path / "photos", load_presets("hair")
     photos.mkdir()
@@ -238,7 +238,7 @@ def test_hair_batch_takes_circular_medians_and_skips_the_asset_library(tmp_path)
 def test_hair_batch_finds_the_hair_in_portraits_and_a_mask_beside_a_photo_wins(tmp_path):
     import skimage.data
 
-    from blender_addon.batch import batch_reference
+    from blender_addon.matching.batch import batch_reference
 
     photos = tmp_path / "photos"
     photos.mkdir()
@@ -251,7 +251,7 @@ def test_hair_batch_finds_the_hair_in_portraits_and_a_mask_beside_a_photo_wins(t
     found, masked = (batch_reference("hair", photos / f"{stem}.png") for stem in ("found", "painted"))
     assert found.hair is not None and found.notes[0].startswith("hair found: ")
     assert masked.hair is None and np.array_equal(masked.region[1] > 0.5, painted > 0.5)
-    model = str(Path(__file__).resolve().parents[2] / "blender_addon" / "models" / "hair_encoder.onnx")
+    model = str(Path(__file__).resolve().parents[3] / "blender_addon" / "models" / "hair_encoder.onnx")
     out = tmp_path / "out"
     assert cli.run(["batch", "--model", model, "--images", str(photos), "--out", str(out), "--group-by", r"^[a-z]+",
                     "--quiet"]) == 0

@@ -12,8 +12,8 @@ pytestmark = [pytest.mark.blender, pytest.mark.torch, pytest.mark.slow]
 pytest.importorskip("bpy")
 pytest.importorskip("torch")
 
-from blender_addon.match import NO_SOURCE, SourceRenderer, match, photo_source  # noqa: E402
-from blender_addon.refine import into_box, refine_by_render  # noqa: E402
+from blender_addon.matching.match import NO_SOURCE, SourceRenderer, match, photo_source  # noqa: E402
+from blender_addon.matching.refine import into_box, refine_by_render  # noqa: E402
 from vto_core import cli  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import read_image, write_image  # noqa: E402
@@ -30,7 +30,7 @@ RES, SAMPLES, SOURCE = 16, 2, 3
 @pytest.fixture(scope="module")
 def models(tmp_path_factory):
     """A tiny encoder (.onnx) and imitator run, trained for a few steps on 6 real renders: (encoder, imitator)."""
-    from blender_addon.commands import cmd_dataset
+    from blender_addon.datasets.commands import cmd_dataset
     from training.config import EncoderConfig, ImitatorConfig, resolve_config
     from training.export import export_encoder
     from training.train_encoder import train_encoder
@@ -52,7 +52,7 @@ def models(tmp_path_factory):
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
     """A red lipstick rendered on default-scene source 3 (Cycles seed 0), saved as a 16-bit PNG."""
-    from blender_addon.commands import render
+    from blender_addon.datasets.commands import render
 
     path = tmp_path_factory.mktemp("match-reference") / "reference.png"
     write_image(path, render("lipstick", {"opacity": 0.9, "red": 200.0, "green": 30.0, "blue": 60.0}, SOURCE, RES,
@@ -163,11 +163,11 @@ def test_inside_blender_match_is_the_addons_own_and_imitator_refinement_is_one_l
                                                                                      capsys, monkeypatch):
     """`blender -c vto match` runs the extension's own match command (no pipeline layer there), torch or not."""
     import blender_addon
-    import blender_addon.match
+    import blender_addon.matching.match
 
     encoder, imitator = models
     monkeypatch.setitem(sys.modules, "bl_ext_vto", blender_addon)  # the extension's package name inside Blender
-    monkeypatch.setitem(sys.modules, "bl_ext_vto.match", blender_addon.match)
+    monkeypatch.setitem(sys.modules, "bl_ext_vto.match", blender_addon.matching.match)
     monkeypatch.setitem(sys.modules, "pipeline", None)  # not shipped in the extension
     out = tmp_path / "params.json"
     argv = ["match", "--model", encoder, "--image", reference, "--source", str(SOURCE), "--out-params", str(out)]
@@ -243,7 +243,7 @@ def portrait(tmp_path_factory):
 
 def test_a_whole_portrait_is_read_at_its_lips(models, portrait, tmp_path, capsys):
     """No crop, no mask: the lips are found and framed; the estimate is the encoder's reading of that frame."""
-    from blender_addon.reference import lips_frame
+    from blender_addon.matching.reference import lips_frame
 
     out = tmp_path / "params.json"
     assert cli.run(["match", "--model", models[0], "--image", str(portrait), "--out-params", str(out)]) == 0
@@ -262,7 +262,7 @@ def test_a_whole_portrait_is_read_at_its_lips(models, portrait, tmp_path, capsys
 
 
 def test_crop_and_mask_work_without_a_material_and_the_photos_light_is_taken_out(models, portrait, tmp_path):
-    from vto_core.photo_light import light_of, neutral_photo
+    from vto_core.photo.photo_light import light_of, neutral_photo
 
     crop = tmp_path / "crop.json"
     assert cli.run(["match", "--model", models[0], "--image", str(portrait), "--crop", "196,117,56,56",
@@ -319,14 +319,14 @@ def test_match_and_render_search_load_without_torch_or_training():
     """The extension ships without torch: importing these modules must not pull it (or `training`) in."""
     import subprocess
 
-    code = ("import sys, blender_addon.match, blender_addon.refine\n"
+    code = ("import sys, blender_addon.matching.match, blender_addon.matching.refine\n"
             "bad = [m for m in ('torch', 'training') if m in sys.modules]\n"
             "print(','.join(bad)); sys.exit(1 if bad else 0)\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, f"imported {done.stdout.strip()} {done.stderr[-500:]}"
 
 
-HAIR_MODEL = str(Path(__file__).resolve().parents[2] / "blender_addon" / "models" / "hair_encoder.onnx")
+HAIR_MODEL = str(Path(__file__).resolve().parents[3] / "blender_addon" / "models" / "hair_encoder.onnx")
 
 
 def test_hair_is_found_in_a_whole_portrait(portrait, tmp_path, capsys):

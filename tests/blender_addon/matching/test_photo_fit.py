@@ -1,5 +1,6 @@
-"""Better and Best without the photo's source (blender_addon.photo_fit): the colour statistics of the lips or hair
-fitted through the real renderer on default sources; and nothing of it is left in the .blend (blender_addon.scratch)."""
+"""Better and Best without the photo's source (blender_addon.matching.photo_fit): the colour statistics of the lips or
+hair fitted through the real renderer on default sources; and nothing of it is left in the .blend
+(blender_addon.scratch)."""
 
 import numpy as np
 import pytest
@@ -7,12 +8,12 @@ import pytest
 pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
-from blender_addon.hair import render_hair_source, run_hair_stage  # noqa: E402
-from blender_addon.lipstick import render_lipstick  # noqa: E402
-from blender_addon.photo_fit import (FIT_QUALITY, LIPS_POOL, apparent_colour, iter_fit_photo,  # noqa: E402
-                                     iter_lips_fit_sources, iter_lips_pool, photo_values)
-from blender_addon.refine import drain  # noqa: E402
-from blender_addon.scene_lips import lips_mask  # noqa: E402
+from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
+from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
+from blender_addon.matching.photo_fit import (FIT_QUALITY, LIPS_POOL, apparent_colour, iter_fit_photo,  # noqa: E402
+                                              iter_lips_fit_sources, iter_lips_pool, photo_values)
+from blender_addon.matching.refine import drain  # noqa: E402
+from blender_addon.renderers.scene_lips import lips_mask  # noqa: E402
 from blender_addon.scratch import scratch_data  # noqa: E402
 from vto_core.appearance import mean_colour, skin_light  # noqa: E402
 from vto_core.colour import ciede2000, srgb_to_lab  # noqa: E402
@@ -135,11 +136,11 @@ def test_fast_keeps_the_lipstick_when_the_render_is_re_lit_warm(tmp_path):
     scene's own)."""
     from pathlib import Path
 
-    from blender_addon.match import match
+    from blender_addon.matching.match import match
     from vto_core.imageio import write_image
-    from vto_core.photo_light import kelvin_gains, relit
+    from vto_core.photo.photo_light import kelvin_gains, relit
 
-    model = str(Path(__file__).resolve().parents[2] / "blender_addon" / "models" / "lipstick_encoder.onnx")
+    model = str(Path(__file__).resolve().parents[3] / "blender_addon" / "models" / "lipstick_encoder.onnx")
     look = {"opacity": 0.9, "red": 190.0, "green": 60.0, "blue": 90.0, "gloss": 0.3, "reflection": 0.2}
     render = render_lipstick(look, 920000, 64, 16, 0)
     write_image(tmp_path / "mask.png", np.repeat(lips_mask(920000, 64)[..., None].astype(np.float32), 3, axis=2))

@@ -1,9 +1,10 @@
-"""A lips mask frames the reference as the default lips scene frames its lips (blender_addon.reference.lips_frame)."""
+"""A lips mask frames the reference as the default lips scene frames its lips
+(blender_addon.matching.reference.lips_frame)."""
 
 import numpy as np
 import pytest
 
-from blender_addon.reference import LIPS_WIDTH_SHARE, MIN_SIZE, lips_frame
+from blender_addon.matching.reference import LIPS_WIDTH_SHARE, MIN_SIZE, lips_frame
 from vto_core.errors import VtoError
 
 
@@ -39,7 +40,7 @@ def test_a_tall_mask_is_not_cut():
 def test_the_default_scene_frames_its_lips_as_lips_frame_does():
     """Framing a default render by its own lips mask gives (about) the whole render back."""
     pytest.importorskip("bpy")
-    from blender_addon.scene_lips import lips_mask
+    from blender_addon.renderers.scene_lips import lips_mask
 
     for source in range(8):
         x, y, w, h = lips_frame(lips_mask(source, 128))
@@ -47,7 +48,7 @@ def test_the_default_scene_frames_its_lips_as_lips_frame_does():
 
 
 def test_a_hair_mask_gives_the_encoder_its_largest_square_and_the_fit_all_of_it():
-    from blender_addon.reference import HAIR_SQUARE_SHARE, hair_reference
+    from blender_addon.matching.reference import HAIR_SQUARE_SHARE, hair_reference
 
     whole = np.random.default_rng(0).random((60, 90, 3)).astype(np.float32)
     mask = mask_with_box(60, 90, slice(10, 50), slice(20, 80))  # 40 x 60 of hair
@@ -62,7 +63,7 @@ def test_a_hair_mask_gives_the_encoder_its_largest_square_and_the_fit_all_of_it(
 
 
 def test_hair_masks_too_thin_or_empty_are_one_line_errors():
-    from blender_addon.reference import hair_reference
+    from blender_addon.matching.reference import hair_reference
     from vto_core.errors import VtoError
 
     whole = np.zeros((40, 40, 3), np.float32)
@@ -73,7 +74,7 @@ def test_hair_masks_too_thin_or_empty_are_one_line_errors():
 
 
 def test_a_lips_mask_frames_the_reference_and_is_its_region_and_whole_image_takes_it_as_it_is():
-    from blender_addon.reference import lips_reference
+    from blender_addon.matching.reference import lips_reference
 
     whole = np.random.default_rng(1).random((100, 100, 3)).astype(np.float32)
     mask = mask_with_box(100, 100, slice(40, 50), slice(30, 70))
@@ -88,7 +89,7 @@ def test_a_lips_mask_frames_the_reference_and_is_its_region_and_whole_image_take
 
 def test_a_photo_read_again_is_decoded_once_until_its_file_changes(tmp_path, monkeypatch):
     """Warm clicks on the same photo skip decoding it; each call gets its own copy, and its warnings."""
-    from blender_addon import reference as module
+    from blender_addon.matching import reference as module
     from vto_core.imageio import write_image
 
     path = tmp_path / "photo.exr"
@@ -113,9 +114,9 @@ def test_the_photos_light_is_taken_out_so_a_re_lit_portrait_reads_nearly_as_the_
     her skin is taken out, and the hair patch of the same photo likewise."""
     import skimage.data
 
-    from blender_addon.reference import hair_reference, lips_reference
+    from blender_addon.matching.reference import hair_reference, lips_reference
     from vto_core.colour import srgb_to_lab
-    from vto_core.photo_light import kelvin_gains, relit
+    from vto_core.photo.photo_light import kelvin_gains, relit
 
     photo = skimage.data.astronaut().astype(np.float32) / 255
     warm = relit(photo, kelvin_gains(3200))
@@ -144,7 +145,7 @@ def test_the_photos_light_is_taken_out_so_a_re_lit_portrait_reads_nearly_as_the_
 def test_a_hair_patch_without_a_face_is_read_as_it_is_and_says_so():
     import skimage.data
 
-    from blender_addon.reference import NO_FACE_HAIR, NO_FACE_LIGHT, hair_reference
+    from blender_addon.matching.reference import NO_FACE_HAIR, NO_FACE_LIGHT, hair_reference
 
     patch = np.ascontiguousarray(skimage.data.astronaut()[20:90, 150:230].astype(np.float32) / 255)
     reference = hair_reference(patch)
@@ -160,7 +161,7 @@ def test_hair_is_found_in_a_whole_portrait_and_a_crop_or_mask_overrides_it():
     import skimage.data
 
     from benchmarks.hand_masks import load_records, rasterise
-    from blender_addon.reference import HAIR_SQUARE_SHARE, hair_reference
+    from blender_addon.matching.reference import HAIR_SQUARE_SHARE, hair_reference
 
     photo = skimage.data.astronaut().astype(np.float32) / 255
     drawn = rasterise(load_records()["package:skimage.data.astronaut"], 512, 512)
@@ -183,7 +184,7 @@ def test_hair_is_found_in_a_whole_portrait_and_a_crop_or_mask_overrides_it():
 def test_the_last_photos_face_and_hair_are_kept_until_a_pixel_changes():
     import skimage.data
 
-    from blender_addon.reference import face_and_hair
+    from blender_addon.matching.reference import face_and_hair
 
     photo = skimage.data.astronaut().astype(np.float32) / 255
     face, light, hair = face_and_hair(photo, True, True)
@@ -202,8 +203,8 @@ def test_hair_is_found_under_a_warm_or_cool_light_as_under_a_neutral_one():
     other portraits' like a hat) when they were judged as the photo shows them."""
     import skimage.data
 
-    from blender_addon.reference import hair_reference
-    from vto_core.photo_light import kelvin_gains, relit
+    from blender_addon.matching.reference import hair_reference
+    from vto_core.photo.photo_light import kelvin_gains, relit
 
     photo = skimage.data.astronaut().astype(np.float32) / 255
     neutral = hair_reference(photo).hair.mask > 0.5

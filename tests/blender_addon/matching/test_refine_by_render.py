@@ -1,9 +1,10 @@
-"""Refinement through a renderer (blender_addon.refine) on small numpy renderers: the fit, the CMA-ES search, budgets."""
+"""Refinement through a renderer (blender_addon.matching.refine) on small numpy renderers: the fit, the CMA-ES search,
+budgets."""
 
 import numpy as np
 import pytest
 
-from blender_addon.refine import refine_by_render
+from blender_addon.matching.refine import refine_by_render
 from vto_core.errors import VtoError
 from vto_core.metrics import mse
 

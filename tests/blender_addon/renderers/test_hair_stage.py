@@ -8,8 +8,9 @@ pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
 from blender_addon.compat import composite_output, compositor_idname, compositor_tree, set_exr_output  # noqa: E402
-from blender_addon.hair import HairSource, _stage_image, load_swatch, render_hair_source, run_hair_stage  # noqa: E402
-from blender_addon.render import configure_cycles, render_passes  # noqa: E402
+from blender_addon.renderers.hair import (HairSource, _stage_image, load_swatch, render_hair_source,  # noqa: E402
+                                          run_hair_stage)
+from blender_addon.renderers.cycles import configure_cycles, render_passes  # noqa: E402
 from vto_core.colour import recolour_swatch  # noqa: E402
 from vto_core.hair import render_hair_reference  # noqa: E402
 from vto_core.metrics import visibility_ratio  # noqa: E402

@@ -18,7 +18,7 @@ ALBEDO = 0.5
 def card_scene():
     """A diffuse grey card facing +z under the default scenes' world, seen by a camera looking down -z."""
     from blender_addon.compat import enable_nodes
-    from blender_addon.lighting import build_hdri_world
+    from blender_addon.renderers.lighting import build_hdri_world
 
     scene = bpy.data.scenes.new("VTO Card Test")
     mesh = bpy.data.meshes.new("VTO Card")
@@ -47,8 +47,8 @@ def card_scene():
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 5])
 def test_a_grey_card_reads_the_metered_level_in_neutral_light(card_scene, seed):
-    from blender_addon import lighting
-    from blender_addon.render import configure_cycles, render_passes
+    from blender_addon.renderers import lighting
+    from blender_addon.renderers.cycles import configure_cycles, render_passes
 
     lighting.randomise_portrait(card_scene, np.random.default_rng(seed))
     # the same draw again, outside Blender: which map, then the lighting made of it
@@ -67,8 +67,8 @@ def test_a_grey_card_reads_the_metered_level_in_neutral_light(card_scene, seed):
 
 def test_portrait_lighting_shows_a_shade_alike_on_every_source():
     """The lips' mean colour varies from source to source far less under portrait light than under wide light."""
-    from blender_addon.lipstick import render_lipstick
-    from blender_addon.scene_lips import lips_mask
+    from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.renderers.scene_lips import lips_mask
     from vto_core.presets import load_presets
 
     presets = load_presets("lipstick")
@@ -86,7 +86,7 @@ def test_portrait_lighting_shows_a_shade_alike_on_every_source():
 
 
 def test_a_lighting_that_does_not_exist_is_one_line():
-    from blender_addon.scene_lips import build_lips_scene, use_lighting
+    from blender_addon.renderers.scene_lips import build_lips_scene, use_lighting
     from vto_core.errors import VtoError
 
     with pytest.raises(VtoError, match="lighting is wide or portrait, got 'studio'"):

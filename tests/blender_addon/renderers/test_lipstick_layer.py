@@ -6,9 +6,10 @@ import pytest
 pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
-from blender_addon.lipstick import render_lipstick  # noqa: E402
-from blender_addon.scene_furnace import FURNACE_SCENE, furnace_scene, render_furnace, seen_colour  # noqa: E402
-from blender_addon.render import render_passes  # noqa: E402
+from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
+from blender_addon.renderers.scene_furnace import (FURNACE_SCENE, furnace_scene, render_furnace,  # noqa: E402
+                                                   seen_colour)
+from blender_addon.renderers.cycles import render_passes  # noqa: E402
 from vto_core.colour import linear_to_srgb, srgb_to_linear  # noqa: E402
 from vto_core.presets import load_presets  # noqa: E402
 
@@ -80,7 +81,7 @@ def test_sparkle_flakes_are_pixels_at_training_size():
 @pytest.mark.parametrize("name", ["Classic Red", "Midnight Vinyl", "Cherry Gloss"])
 def test_glossy_presets_keep_their_colour(name):
     """Under the studio HDRIs the lips' median colour keeps the preset's hue (no white wash)."""
-    from blender_addon.scene_lips import LIPS_PASS_INDEX, build_lips_scene
+    from blender_addon.renderers.scene_lips import LIPS_PASS_INDEX, build_lips_scene
 
     values = load_presets("lipstick")[name]
     image = render_lipstick(values, 1, 48, 8)

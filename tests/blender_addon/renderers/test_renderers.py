@@ -11,12 +11,12 @@ import pytest
 pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
-from blender_addon.commands import render  # noqa: E402
-from blender_addon.hair import render_hair_source, run_hair_stage  # noqa: E402
-from blender_addon.lipstick import render_lipstick  # noqa: E402
-from blender_addon.node_utils import interface_names  # noqa: E402
-from blender_addon.nodes_hair import color_group, swatch_group  # noqa: E402
-from blender_addon.nodes_lipstick import lipstick_group  # noqa: E402
+from blender_addon.datasets.commands import render  # noqa: E402
+from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
+from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
+from blender_addon.renderers.node_utils import interface_names  # noqa: E402
+from blender_addon.renderers.nodes_hair import color_group, swatch_group  # noqa: E402
+from blender_addon.renderers.nodes_lipstick import lipstick_group  # noqa: E402
 from vto_core import cli  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import read_image  # noqa: E402
@@ -96,7 +96,7 @@ def test_same_inputs_give_identical_pixels():
 # One hair render per process: what varied was set up per process (the head mesh's face order), not per render.
 HAIR_HASHES = """
 import hashlib, bpy
-from blender_addon.hair import render_hair
+from blender_addon.renderers.hair import render_hair
 print(*(hashlib.sha256(render_hair(values, 3, 24, 2).tobytes()).hexdigest() for values in ({}, {"hue": 0.3})))
 """
 
@@ -203,7 +203,7 @@ def test_spec_ranges_cover_the_paper():
 
 
 def test_a_photo_with_its_mask_is_a_hair_source(tmp_path, hair_sources):
-    from blender_addon.hair import load_photo_source, photo_sources
+    from blender_addon.renderers.hair import load_photo_source, photo_sources
     from vto_core.imageio import write_image
 
     source = hair_sources[0]
@@ -224,8 +224,8 @@ def test_a_photo_with_its_mask_is_a_hair_source(tmp_path, hair_sources):
 
 
 def test_the_default_hair_source_is_a_region_of_strands_and_the_portrait_a_whole_head():
-    from blender_addon.hair import render_hair_source
-    from blender_addon.scene_hair import POINTS_PER_STRAND, STRANDS, strand_positions
+    from blender_addon.renderers.hair import render_hair_source
+    from blender_addon.renderers.scene_hair import POINTS_PER_STRAND, STRANDS, strand_positions
 
     points = strand_positions(np.random.default_rng([3, 0x4A12]))
     assert points.shape == (STRANDS * POINTS_PER_STRAND, 3) and np.isfinite(points).all()
@@ -241,7 +241,7 @@ def test_a_blender_without_openimagedenoise_renders_undenoised():
     """Debian's Blender 4.3 has no OpenImageDenoise: setting it raises TypeError, and renders go on without it."""
     from types import SimpleNamespace
 
-    from blender_addon.render import set_render_quality
+    from blender_addon.renderers.cycles import set_render_quality
 
     class NoDenoiser(SimpleNamespace):
         def __setattr__(self, name, value):
@@ -258,7 +258,7 @@ def test_tones_replace_a_lips_sources_skin_and_lips_and_leave_its_light_and_shap
     """render_lipstick's tones: the skin and bare lips take them (the skin reads the tone's colour), the source's
     light, shape and camera stay (the lips mask is the source's), and the next render without them is the seed's own
     again (scene_lips.source_tones says what they are)."""
-    from blender_addon.scene_lips import lip_tone, lips_mask, source_tones
+    from blender_addon.renderers.scene_lips import lip_tone, lips_mask, source_tones
     from vto_core.appearance import skin_light
     from vto_core.colour import ciede2000, srgb_to_lab
 

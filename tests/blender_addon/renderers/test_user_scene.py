@@ -11,10 +11,10 @@ pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
 from blender_addon.compat import EEVEE_ENGINE  # noqa: E402
-from blender_addon.lipstick import render_lipstick, scene_values, set_lipstick_values  # noqa: E402
-from blender_addon.dataset import DatasetJob  # noqa: E402
-from blender_addon.render import render_user_scene  # noqa: E402
-from blender_addon.scene_params import user_scene, visible_parameters  # noqa: E402
+from blender_addon.renderers.lipstick import render_lipstick, scene_values, set_lipstick_values  # noqa: E402
+from blender_addon.datasets.dataset import DatasetJob  # noqa: E402
+from blender_addon.renderers.cycles import render_user_scene  # noqa: E402
+from blender_addon.renderers.scene_params import user_scene, visible_parameters  # noqa: E402
 from vto_core import cli  # noqa: E402
 from vto_core.dataset import DatasetReader  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
@@ -23,7 +23,7 @@ from vto_core.errors import VtoError  # noqa: E402
 # (density and intensity 0), so their size, set off its default, cannot show.
 CARD_SCENE = r'''
 import bpy, sys
-from blender_addon.nodes_lipstick import lipstick_group
+from blender_addon.renderers.nodes_lipstick import lipstick_group
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 scene.name = "Card"

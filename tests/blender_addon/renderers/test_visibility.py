@@ -9,13 +9,13 @@ import pytest
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 bpy = pytest.importorskip("bpy")
 
-from blender_addon.commands import render  # noqa: E402
-from blender_addon.hair import render_hair_source, run_hair_stage  # noqa: E402
-from blender_addon.scene_lips import lips_mask  # noqa: E402
+from blender_addon.datasets.commands import render  # noqa: E402
+from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
+from blender_addon.renderers.scene_lips import lips_mask  # noqa: E402
 from vto_core.dataset import DEFAULT_SAMPLES  # noqa: E402
 from vto_core.specs import get_spec  # noqa: E402
 from vto_core.visibility import (  # noqa: E402
-    BELOW_BAR, VISIBLE_RATIO, measurement_look, parameter_visibility, step_visibility)
+                                 BELOW_BAR, VISIBLE_RATIO, measurement_look, parameter_visibility, step_visibility)
 
 RES, SOURCE = 64, 1
 def _check(renderer, name, ratio, modelled):

@@ -16,9 +16,9 @@ pytestmark = [pytest.mark.blender, pytest.mark.torch, pytest.mark.slow]
 bpy = pytest.importorskip("bpy")
 
 import blender_addon  # noqa: E402
-from blender_addon import apply  # noqa: E402
-from blender_addon.photo_fit import NOT_OFFERED  # noqa: E402
-from blender_addon.reference import load_reference  # noqa: E402
+from blender_addon.matching import apply  # noqa: E402
+from blender_addon.matching.photo_fit import NOT_OFFERED  # noqa: E402
+from blender_addon.matching.reference import load_reference  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import write_image  # noqa: E402
 from vto_core.inference import EncoderSession, cached_session  # noqa: E402
@@ -28,7 +28,7 @@ MODEL = str(apply.default_model("lipstick"))
 SPEC = EncoderSession(MODEL).spec  # whatever the shipped model estimates: read from its metadata
 LIPSTICK = get_spec("lipstick")
 UNTOUCHED = {"sheen": 0.7, "texture": 0.25}  # inputs the shipped model does not estimate: a match leaves them
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -40,7 +40,7 @@ def addon():
     yield
     blender_addon.unregister()
     # Later test modules share this bpy session: remove what these tests made (never reload the file: other modules
-    # keep names of data they made, e.g. blender_addon.lighting's split HDRIs).
+    # keep names of data they made, e.g. blender_addon.renderers.lighting's split HDRIs).
     for kind in kinds:
         collection = getattr(bpy.data, kind)
         for name in set(collection.keys()) - before[kind]:
@@ -128,7 +128,7 @@ def fast_estimate(image: np.ndarray, lips: np.ndarray, box: tuple[int, int, int,
                   ) -> dict[str, float]:
     """Fast on a reference (H, W, 3) whose lips (H, W) are known: the encoder's estimate of the part `box` (x, y, w,
     h) of the photo with its light, read from the skin beside the lips, taken out."""
-    from vto_core.photo_light import light_of, neutral_photo
+    from vto_core.photo.photo_light import light_of, neutral_photo
 
     x, y, w, h = box
     return expected_estimate(np.ascontiguousarray(neutral_photo(image, light_of(image, lips))[y:y + h, x:x + w]),
@@ -231,7 +231,7 @@ def test_a_large_reference_is_block_reduced_first_with_the_same_result():
 
 
 def test_the_model_is_the_override_else_the_preference_else_the_shipped_one(tmp_path):
-    from blender_addon.preferences import preference_model
+    from blender_addon.ui.preferences import preference_model
 
     assert apply.resolve_model("hair") == ROOT / "blender_addon" / "models" / "hair_encoder.onnx"
     assert apply.resolve_model("lipstick", "", str(tmp_path / "pref.onnx")) == tmp_path / "pref.onnx"
@@ -455,8 +455,8 @@ def portrait(tmp_path_factory):
 
 
 def test_a_portrait_is_matched_at_its_lips_and_better_leaves_nothing_behind(material, portrait):
-    from blender_addon import thumbnail
-    from blender_addon.reference import read_reference
+    from blender_addon.ui import thumbnail
+    from blender_addon.matching.reference import read_reference
 
     framed = read_reference("lipstick", {"image_path": portrait})
     assert run_match(material=material, image_path=portrait, find_lips=True) == ({"FINISHED"}, None)
@@ -481,8 +481,8 @@ def test_a_portrait_is_matched_at_its_lips_and_better_leaves_nothing_behind(mate
 
 
 def test_the_thumbnail_outlines_the_lips_found():
-    from blender_addon.thumbnail import LIPS_COLOUR, compose
-    from vto_core.lips_locator import close_up
+    from blender_addon.ui.thumbnail import LIPS_COLOUR, compose
+    from vto_core.photo.lips_locator import close_up
 
     picture = np.full((64, 64, 3), 0.5, np.float32)
     lips = close_up((64, 64), (0.78, 0.4, 0.5, 0.5), 1.0, "")
@@ -493,8 +493,8 @@ def test_the_thumbnail_outlines_the_lips_found():
 
 
 def test_the_thumbnail_outlines_the_hair_found():
-    from blender_addon.thumbnail import HAIR_COLOUR, compose
-    from vto_core.hair_locator import HairFound
+    from blender_addon.ui.thumbnail import HAIR_COLOUR, compose
+    from vto_core.photo.hair_locator import HairFound
 
     picture = np.full((64, 64, 3), 0.5, np.float32)
     mask = np.zeros((64, 64), np.float32)
@@ -507,8 +507,8 @@ def test_the_thumbnail_outlines_the_hair_found():
 
 
 def test_hair_is_found_in_a_portrait_by_the_operator_and_no_hair_changes_nothing(portrait, tmp_path):
-    from blender_addon.batch import fast_values
-    from blender_addon.reference import read_reference
+    from blender_addon.matching.batch import fast_values
+    from blender_addon.matching.reference import read_reference
 
     hair = get_spec("hair")
     scene = bpy.data.scenes.new("Hair Portrait")
@@ -696,7 +696,7 @@ def test_invoke_in_background_is_execute_and_refinement_reports_progress(materia
 
 def test_the_modal_refinement_writes_only_at_the_end_and_esc_changes_nothing(tmp_path, monkeypatch):
     """The UI path: a few renders per timer tick, progress each render, the values written once, after the last."""
-    import blender_addon.operators as operators
+    import blender_addon.ui.operators as operators
 
     hair = get_spec("hair")
     scene = bpy.data.scenes.new("Hair Modal")
@@ -752,7 +752,7 @@ def test_refinement_waits_while_another_thread_renders_in_cycles(tmp_path):
     import importlib.util
     import threading
 
-    from blender_addon.operators import another_thread_renders
+    from blender_addon.ui.operators import another_thread_renders
 
     (tmp_path / "cycles").mkdir()
     (tmp_path / "cycles" / "engine.py").write_text("def render(started, release):\n    started.set()\n"

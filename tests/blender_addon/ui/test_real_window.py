@@ -20,7 +20,7 @@ from vto_core.specs import get_spec
 
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 CHROOT = Path(os.environ.get("VTO_REAL_BLENDER", "/work/cache/real-blender")) / "trixie"
 LIPSTICK = get_spec("lipstick")
 # The astronaut's lips, drawn by hand (x, y, w, h; tests/vto_core/test_lips_locator.py).

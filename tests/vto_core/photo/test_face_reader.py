@@ -9,9 +9,9 @@ import pytest
 from vto_core.errors import VtoError
 
 pytest.importorskip("onnxruntime")
-from vto_core import face_reader as fr  # noqa: E402
+from vto_core.photo import face_reader as fr  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 MODELS = ROOT / "blender_addon" / "models"
 DETECTOR, MESH = MODELS / "face_detector.onnx", MODELS / "face_landmarks.onnx"
 

@@ -11,10 +11,10 @@ import pytest
 from vto_core.errors import VtoError
 
 pytest.importorskip("onnxruntime")
-from vto_core import face_reader as fr  # noqa: E402
-from vto_core import lips_locator as ll  # noqa: E402
+from vto_core.photo import face_reader as fr  # noqa: E402
+from vto_core.photo import lips_locator as ll  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 MODELS = ROOT / "blender_addon" / "models"
 DETECTOR, MESH = MODELS / "face_detector.onnx", MODELS / "face_landmarks.onnx"
 # Hand-drawn tight lips boxes (x, y, w, h), as in benchmarks/photos/photos.json. The astronaut's mouth crop
@@ -184,7 +184,7 @@ def test_a_bad_shape_is_refused(locator):
 
 
 def test_the_face_lips_and_hair_modules_import_nothing_blender_lacks():
-    code = ("import sys, vto_core.lips_locator, vto_core.face_reader, vto_core.hair_locator\n"
+    code = ("import sys, vto_core.photo.lips_locator, vto_core.photo.face_reader, vto_core.photo.hair_locator\n"
             "bad = [m for m in ('onnxruntime', 'bpy', 'torch', 'skimage', 'scipy', 'cv2', 'PIL', 'OpenImageIO')"
             " if m in sys.modules]\nprint(','.join(bad))\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)

@@ -1,11 +1,12 @@
-"""The photo's light read from the skin and taken out (vto_core.photo_light): reference values, invariance, extremes."""
+"""The photo's light read from the skin and taken out (vto_core.photo.photo_light): reference values, invariance,
+extremes."""
 
 import numpy as np
 import pytest
 
 from vto_core.colour import srgb_to_linear
-from vto_core.photo_light import (ANY_CAST_SIGMA, MAX_GAIN, SKIN_LOG_MEAN, kelvin_gains, light_from_skin, light_of,
-                                  neutral_photo, read_gain, relit)
+from vto_core.photo.photo_light import (ANY_CAST_SIGMA, MAX_GAIN, SKIN_LOG_MEAN, kelvin_gains, light_from_skin,
+                                        light_of, neutral_photo, read_gain, relit)
 
 TYPICAL_SKIN = np.exp(SKIN_LOG_MEAN)
 
