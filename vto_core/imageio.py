@@ -40,8 +40,62 @@ def _one_line(message):
     return "; ".join(line for line in lines if line) or "unknown error"
 
 
-def read_image(path):
-    """Read the first subimage of `path` as (rgb (H,W,3) float32, alpha (H,W) float32 or None)."""
+# The formats named first when a file cannot be read (OpenImageIO's names), and the phone formats looked for.
+_COMMON_FORMATS = ("jpeg", "png", "tiff", "openexr", "webp", "bmp", "targa", "psd", "hdr")
+_PHONE_FORMATS = {"heif": "HEIC/AVIF"}
+
+
+def readable_formats():
+    """What this OpenImageIO reads, in one phrase: 'jpeg, png, tiff, ... (not HEIC/AVIF)'."""
+    import OpenImageIO as oiio
+
+    names = [name for name in oiio.get_string_attribute("format_list").split(",") if name not in ("null", "term")]
+    listed = [name for name in _COMMON_FORMATS if name in names] + [n for n in names if n not in _COMMON_FORMATS]
+    missing = [label for name, label in _PHONE_FORMATS.items() if name not in names]
+    return ", ".join(listed) + (f" (not {', '.join(missing)}: export those to JPEG or PNG)" if missing else "")
+
+
+def upright(pixels, orientation):
+    """(H, W, C) as stored -> as a viewer shows it, for an EXIF/TIFF Orientation tag 1-8 (others: as stored).
+
+    The tag says where the stored 0th row and 0th column lie when viewed (TIFF 6.0): 2 mirrored, 3 turned 180,
+    4 flipped, 5 transposed, 6 turned 90 clockwise, 7 transversed, 8 turned 90 anticlockwise. (OpenImageIO 3.0's
+    ImageBufAlgo.reorient swaps 5 and 7 against this and against Pillow's exif_transpose, so it is not used.)"""
+    if orientation == 2:
+        pixels = pixels[:, ::-1]
+    elif orientation == 3:
+        pixels = pixels[::-1, ::-1]
+    elif orientation == 4:
+        pixels = pixels[::-1]
+    elif orientation == 5:
+        pixels = pixels.swapaxes(0, 1)
+    elif orientation == 6:
+        pixels = np.rot90(pixels, -1)
+    elif orientation == 7:
+        pixels = pixels[::-1, ::-1].swapaxes(0, 1)
+    elif orientation == 8:
+        pixels = np.rot90(pixels, 1)
+    return np.ascontiguousarray(pixels)
+
+
+def orientation_of(path):
+    """The Orientation tag (1-8; 1 when absent or unreadable) of the image file at `path`."""
+    import OpenImageIO as oiio
+
+    image_input = oiio.ImageInput.open(os.fspath(path))
+    if image_input is None:
+        oiio.geterror()
+        return 1
+    try:
+        return image_input.spec().get_int_attribute("Orientation", 1)
+    finally:
+        image_input.close()
+
+
+def read_image(path, as_shown=True):
+    """Read the first subimage of `path` as (rgb (H,W,3) float32, alpha (H,W) float32 or None).
+
+    as_shown: turned as a viewer shows it (its EXIF/TIFF orientation applied, see `upright`); False: as stored."""
     import OpenImageIO as oiio
 
     path = os.fspath(path)
@@ -51,9 +105,13 @@ def read_image(path):
     config.attribute("oiio:UnassociatedAlpha", 1)
     image_input = oiio.ImageInput.open(path, config)
     if image_input is None:
-        raise VtoError(f"cannot read image {path}: {_one_line(oiio.geterror())}")
+        reason = _one_line(oiio.geterror())
+        if "could not find a format reader" in reason:
+            reason = f"not a format that can be read here; readable: {readable_formats()}"
+        raise VtoError(f"cannot read image {path}: {reason}")
     try:
         spec = image_input.spec()
+        orientation = spec.get_int_attribute("Orientation", 1) if as_shown else 1
         channel_count = spec.nchannels
         if channel_count not in (1, 2, 3, 4) or spec.depth > 1:
             raise VtoError(
@@ -75,7 +133,8 @@ def read_image(path):
     else:
         rgb = pixels[:, :, :3]
     alpha = pixels[:, :, channel_count - 1] if channel_count in (2, 4) else None
-    return np.ascontiguousarray(rgb), None if alpha is None else np.ascontiguousarray(alpha)
+    rgb, alpha = upright(rgb, orientation), None if alpha is None else upright(alpha, orientation)
+    return rgb, alpha
 
 
 def require_finite(image, what):

@@ -14,6 +14,7 @@ source). Without one the encoder's estimate is the answer, and the command says 
 from __future__ import annotations
 
 import json
+import math
 import os
 import sys
 import time
@@ -148,11 +149,13 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
     values = session.predict(prepared.image)[0]
     result = {"renderer": spec.renderer, "params": values, "refined": False, "note": "", "notes": prepared.notes,
               "encoder_ms": 1000 * (time.perf_counter() - started)}
+    turn = round(math.degrees(prepared.turn), 1)  # the face's roll the region was read upright from
     if prepared.lips is not None:
-        result["lips"] = {"how": prepared.lips.how, "box": list(prepared.lips.box), "faces": prepared.lips.faces}
+        result["lips"] = {"how": prepared.lips.how, "box": list(prepared.lips.box), "faces": prepared.lips.faces,
+                          "turn": turn}
     if prepared.hair is not None:
         result["hair"] = {"box": list(prepared.hair.box), "faces": prepared.hair.faces,
-                          "share": round(float(prepared.hair.mask.mean()), 4)}
+                          "share": round(float(prepared.hair.mask.mean()), 4), "turn": turn}
     if prepared.light is not None:
         result["light"] = {"gains": [round(float(g), 4) for g in prepared.light.gains],
                            "read_from": prepared.light.read_from}

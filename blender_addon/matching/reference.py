@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from vto_core.errors import VtoError
-from vto_core.imageio import read_image, resize
+from vto_core.imageio import orientation_of, read_image, resize, upright
 from vto_core.photo.photo_light import light_of, neutral_photo
 
 MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that an estimate is made from
@@ -32,6 +32,10 @@ PERSON_SEGMENTER = "person_segmenter.onnx"  # blender_addon/models/person_segmen
 NO_FACE_LIGHT = "no face: the photo's light is kept"  # a hair photo with no face to read its light from
 NO_FACE_HAIR = "no face: the whole image is read as hair"
 HAIR_SQUARE_SHARE = 0.95  # the hair encoder reads the largest square of a hair mask that is this share hair
+# A face rolled more than this is framed turned upright (lips and hair) before the encoder reads it; below it the frame
+# stays on the pixel grid (no resampling). The 18 portraits' own rolls are -9 to 3 degrees, 14 of them within 5.
+ROLL_TOLERANCE = math.radians(5)
+ROLL_NOTE = math.radians(10)  # from this roll on, the panel says the face was read upright
 
 
 def absolute_path(path: str) -> str:
@@ -83,7 +87,8 @@ def datablock_pixels(image) -> np.ndarray:
     """A bpy image datablock as display values (H, W, 3), top row first.
 
     Read from its file when it has an unmodified one on disk (as a file reference would be); else from its pixels:
-    byte images hold display values already, float images scene-linear ones (converted to sRGB).
+    byte images hold display values already, float images scene-linear ones (converted to sRGB). Either way turned
+    as a viewer shows it: Blender keeps a file's pixels as stored, so its EXIF orientation is applied here.
     """
     path = absolute_path(image.filepath_raw) if image.filepath_raw else ""
     if path and os.path.isfile(path) and image.packed_file is None and not image.is_dirty:
@@ -100,6 +105,8 @@ def datablock_pixels(image) -> np.ndarray:
         from vto_core.colour import linear_to_srgb
 
         rgb = linear_to_srgb(np.clip(np.nan_to_num(rgb, nan=0.0), 0.0, None))
+    if path and os.path.isfile(path):
+        rgb = upright(rgb, orientation_of(path))
     return _checked(np.ascontiguousarray(rgb, dtype=np.float32), f"image '{image.name}'")
 
 
@@ -188,6 +195,7 @@ class Reference:
     notes: list[str] = field(default_factory=list)
     light: object = None
     hair: object = None  # vto_core.photo.hair_locator.HairFound where the hair was found in a portrait
+    turn: float = 0.0  # radians, clockwise: how far `image` is turned from the photo (the face's roll), 0 on the grid
 
 
 def read_face(image: np.ndarray):
@@ -224,6 +232,49 @@ def _cut_read(whole: np.ndarray, box: tuple[int, int, int, int], light) -> np.nd
     return _cut(whole, box) if light is None else neutral_photo(_cut(whole, box), light)
 
 
+def turned_cut(image: np.ndarray, centre: np.ndarray, side: float, angle: float, light=None
+               ) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+    """The square of `side` px centred on `centre` (x, y) and turned by `angle` rad (clockwise) cut from (H, W, C)
+    and turned upright: ((n, n, C) float32 at the photo's own scale, black outside the photo; the pixel box (x, y,
+    w, h) it covers). light: taken out of the colour (None: as it is)."""
+    from vto_core.photo.face_reader import apply_matrix, square_matrix, warp
+
+    size = max(MIN_SIZE, int(round(side)))
+    matrix = square_matrix(np.asarray(centre, np.float64), side, angle, size)
+    corners = apply_matrix(matrix, np.array([[0, 0], [size, 0], [0, size], [size, size]], np.float64))
+    height, width = image.shape[:2]
+    x0, y0 = (max(0, int(math.floor(v)) - 1) for v in corners.min(axis=0))
+    x1, y1 = min(width, int(math.ceil(corners[:, 0].max())) + 1), min(height, int(math.ceil(corners[:, 1].max())) + 1)
+    box = (x0, y0, max(0, x1 - x0), max(0, y1 - y0))
+    part = _cut(image, box) if light is None else _cut_read(image, box, light)
+    part = part[..., None] if part.ndim == 2 else part
+    matrix[:, 2] -= (x0, y0)
+    return warp(part, matrix, size).transpose(1, 2, 0), box
+
+
+def face_roll(landmarks) -> float:
+    """The roll (radians, clockwise) a face is framed with: its roll where it passes ROLL_TOLERANCE, else 0."""
+    from vto_core.photo.face_reader import roll_of
+
+    roll = 0.0 if landmarks is None else roll_of(np.asarray(landmarks))
+    return roll if abs(roll) > ROLL_TOLERANCE else 0.0
+
+
+def turned_lips_square(outer: np.ndarray, angle: float) -> tuple[np.ndarray, float]:
+    """lips_frame for lips turned by `angle` rad: the outer contour (K, 2) measured along the face's own axes ->
+    (centre (2,), side px) of the square that frames them as the default lips scene frames them."""
+    across, down = np.array([math.cos(angle), math.sin(angle)]), np.array([-math.sin(angle), math.cos(angle)])
+    along, below = np.asarray(outer, np.float64) @ across, np.asarray(outer, np.float64) @ down
+    side = max(math.ceil(np.ptp(along) / LIPS_WIDTH_SHARE), float(np.ptp(below)), MIN_SIZE)
+    centre = across * (along.min() + along.max()) / 2 + down * (below.min() + below.max()) / 2
+    return centre, float(side)
+
+
+def turn_note(angle: float) -> list[str]:
+    """[a note that the face was read upright] where it is turned by ROLL_NOTE or more, else []."""
+    return [f"face turned {math.degrees(angle):+.0f} degrees: read upright"] if abs(angle) >= ROLL_NOTE else []
+
+
 def in_whole(lips, box: tuple[int, int, int, int], shape: tuple[int, int]):
     """Lips found inside `box` (x, y, w, h) of an image of `shape` (H, W), in that image's coordinates."""
     import dataclasses
@@ -239,6 +290,16 @@ def in_whole(lips, box: tuple[int, int, int, int], shape: tuple[int, int]):
                                inner=np.asarray(lips.inner) + offset)
 
 
+def refuse_monochrome(whole: np.ndarray, product: str, toned: bool = True) -> None:
+    """VtoError (one line) where the photo (H, W, 3) has no colour to read a `product` colour from: black and white,
+    or (toned) a monochrome toned print (vto_core.photo.monochrome)."""
+    from vto_core.photo.monochrome import monochrome_problem
+
+    problem = monochrome_problem(whole, product, toned)
+    if problem:
+        raise VtoError(problem)
+
+
 def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None, find_lips: bool = True,
                    neutral_light: bool = True) -> Reference:
     """The lips of a photo, framed for the encoder: a crop, a mask (framed by lips_frame), or, with neither, the lips
@@ -246,6 +307,7 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     the locator finds no lips is taken as the artist drew it: the lips where the default scene frames them.
     neutral_light: where the lips are known, the photo's light is read from the skin beside them and taken out
     (vto_core.photo.photo_light), so the estimate is of the product, not of the light it was photographed in."""
+    refuse_monochrome(whole, "lipstick")
     height, width = whole.shape[:2]
     box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
     notes, lips = [], None
@@ -266,6 +328,13 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     if neutral_light and mask is not None:
         light = light_of(whole, mask)
         notes.append(light.describe())
+    turn = face_roll(lips.landmarks) if crop is None and lips is not None and lips.how == "face" else 0.0
+    if turn:  # a tilted head: the lips framed along the face's own axes, turned upright
+        centre, side = turned_lips_square(lips.outer, turn)
+        image, box = turned_cut(whole, centre, side, turn, light)
+        notes += turn_note(turn)
+        lips_mask = (turned_cut(mask, centre, side, turn)[0][..., 0] > 0.5).astype(np.float32)
+        return Reference(image, (image, lips_mask), whole, box, lips, notes, light, turn=turn)
     if crop is None and mask is not None:
         box = lips_frame(mask)
     image = _cut_read(whole, box, light)
@@ -313,9 +382,12 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     from vto_core.hair import hair_square
     from vto_core.photo.hair_locator import patch_problem
 
+    refuse_monochrome(whole, "hair", toned=False)
     height, width = whole.shape[:2]
     box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
     finding = find_hair and crop is None and mask is None
+    if (neutral_light or finding) and face_and_hair(whole, False, False)[0] is not None:
+        refuse_monochrome(whole, "hair")  # a portrait: a toned print too (a patch of grey hair alone is near one hue)
     face, light, hair = face_and_hair(whole, finding, neutral_light) if neutral_light or finding else (None,) * 3
     notes = []
     if finding:
@@ -330,8 +402,16 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
             notes.append(f"hair found: {hair.mask.mean():.0%} of the photo")
     if neutral_light:
         notes.append(NO_FACE_LIGHT if light is None else light.describe())
-    rgb = _cut_read(whole, box, light)
-    mask = np.ones(rgb.shape[:2], np.float32) if mask is None else _cut(mask, box)
+    turn = face_roll(face.landmarks) if finding and face is not None else 0.0
+    if turn:  # a tilted head: the hair's region turned upright, so the square is read as an upright head shows it
+        x, y, w, h = box
+        centre, side = np.array([x + w / 2, y + h / 2]), math.hypot(w, h)
+        rgb, box = turned_cut(whole, centre, side, turn, light)
+        mask = (turned_cut(mask, centre, side, turn)[0][..., 0] > 0.5).astype(np.float32)
+        notes += turn_note(turn)
+    else:
+        rgb = _cut_read(whole, box, light)
+        mask = np.ones(rgb.shape[:2], np.float32) if mask is None else _cut(mask, box)
     if not mask.any():
         raise VtoError("the hair mask holds no hair inside the crop")
     square = hair_square(mask, HAIR_SQUARE_SHARE)
@@ -339,8 +419,9 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
         raise VtoError(f"the hair mask holds no {MIN_SIZE}x{MIN_SIZE} px square of hair for the encoder to read: "
                        "paint more of the hair, or crop a patch of it")
     x, y, side = square
-    inner = (box[0] + x, box[1] + y, side, side)
-    return Reference(_cut(rgb, (x, y, side, side)), (rgb, mask), whole, inner, notes=notes, light=light, hair=hair)
+    inner = box if turn else (box[0] + x, box[1] + y, side, side)
+    return Reference(_cut(rgb, (x, y, side, side)), (rgb, mask), whole, inner, notes=notes, light=light, hair=hair,
+                     turn=turn)
 
 
 def read_reference(renderer: str, settings: dict) -> Reference:

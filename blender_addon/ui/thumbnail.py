@@ -9,8 +9,8 @@ import numpy as np
 
 from vto_core.errors import VtoError
 
-from ..matching.reference import (absolute_path, crop_box, datablock_pixels, hair_reference, lips_frame, lips_reference,
-                                  load_reference, read_mask)
+from ..matching.reference import (absolute_path, crop_box, datablock_pixels, face_roll, hair_reference, lips_frame,
+                                  lips_reference, load_reference, read_mask, turned_lips_square)
 
 SIZE = 128  # pixels of the square thumbnail
 CROP_COLOUR = (1.0, 0.78, 0.1)  # the crop's outline: Blender's selection orange-yellow
@@ -77,7 +77,13 @@ def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None, hai
         canvas[top:top + h, left:left + w, :3][edge] = HAIR_COLOUR
     if lips is not None:  # the outer contour: at thumbnail size a mouth is a few pixels, the inner one would fill it
         outline(canvas, np.asarray(lips.outer, np.float64) * scale + (left, top), LIPS_COLOUR, width=1)
-        if lips.how == "face":
+        turn = face_roll(lips.landmarks) if lips.how == "face" else 0.0
+        if turn:  # the frame the encoder reads, turned with the face, on the photo as it is shown
+            centre, side = turned_lips_square(lips.outer, turn)
+            across, down = np.array([np.cos(turn), np.sin(turn)]), np.array([-np.sin(turn), np.cos(turn)])
+            corners = [centre + (across * sx + down * sy) * side / 2 for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+            outline(canvas, np.array(corners) * scale + (left, top), CROP_COLOUR)
+        elif lips.how == "face":
             crop = lips_frame(lips.mask)
     if crop is not None:
         x, y, cw, ch = crop_box(crop, width, height)

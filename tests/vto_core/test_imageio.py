@@ -365,3 +365,66 @@ def test_import_needs_neither_openimageio_nor_blender_nor_torch():
         [sys.executable, "-c", script], env=environment, capture_output=True, text=True
     )
     assert completed.returncode == 0, completed.stderr
+
+
+def _write_tagged(path, pixels, orientation):
+    """8-bit pixels (H, W, 3) in [0, 1] stored as they are, with the Orientation tag set."""
+    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], 3, "uint8")
+    spec.attribute("Orientation", orientation)
+    output = oiio.ImageOutput.create(str(path))
+    assert output.open(str(path), spec)
+    output.write_image(np.ascontiguousarray(np.rint(pixels * 255).astype(np.uint8)))
+    output.close()
+
+
+@pytest.mark.parametrize("orientation", range(1, 9))
+@pytest.mark.parametrize("extension", [".jpg", ".tif"])
+def test_each_orientation_is_read_as_a_viewer_shows_it(tmp_path, orientation, extension):
+    from PIL import Image, ImageOps
+
+    stored = np.zeros((24, 40, 3), np.float32)
+    stored[:8, :8, 0] = 1.0  # a red corner at the stored top left, a green one at the stored top right
+    stored[:8, -8:, 1] = 1.0
+    path = tmp_path / f"tagged{extension}"
+    _write_tagged(path, stored, orientation)
+    shown, _ = read_image(path)
+    with Image.open(path) as picture:  # Pillow's exif_transpose: what viewers show
+        expected = np.asarray(ImageOps.exif_transpose(picture).convert("RGB"), np.float32) / 255
+    assert shown.shape == expected.shape == ((24, 40, 3) if orientation < 5 else (40, 24, 3))
+    assert np.abs(shown - expected).max() < 1e-6
+    assert np.array_equal(read_image(path, as_shown=False)[0].shape, stored.shape)
+
+
+def test_an_unreadable_file_names_the_formats_that_are_read(tmp_path):
+    path = tmp_path / "photo.heic"
+    path.write_bytes(b"\x00\x00\x00\x18ftypheic" + bytes(64))
+    with pytest.raises(VtoError) as caught:
+        read_image(path)
+    message = str(caught.value)
+    assert "\n" not in message and "readable: jpeg, png, tiff" in message and "not HEIC/AVIF" in message
+
+
+@pytest.mark.parametrize("form", ["CMYK JPEG", "palette PNG", "animated GIF"])
+def test_photos_saved_as_other_programs_save_them(tmp_path, form):
+    """The forms a reference photo arrives in besides RGB JPEG/PNG: CMYK JPEG and palette PNG read as their colours;
+    an animated GIF, which this OpenImageIO has no reader for, is one line naming what is read."""
+    from PIL import Image
+
+    rgb = _smooth_rgb()
+    picture = Image.fromarray(np.rint(rgb * 255).astype(np.uint8))
+    if form == "CMYK JPEG":
+        path = tmp_path / "print.jpg"
+        picture.convert("CMYK").save(path, quality=95)
+    elif form == "palette PNG":
+        path = tmp_path / "palette.png"
+        picture.quantize(256).save(path)
+    else:
+        path = tmp_path / "moving.gif"
+        frames = [picture, Image.fromarray(np.rint(rgb[::-1] * 255).astype(np.uint8))]
+        frames[0].save(path, save_all=True, append_images=frames[1:], duration=100, loop=0)
+        with pytest.raises(VtoError) as caught:
+            read_image(path)
+        assert "\n" not in str(caught.value) and "readable: jpeg, png" in str(caught.value)
+        return
+    read, _ = read_image(path)
+    assert read.shape == rgb.shape and np.abs(read - rgb).mean() < 0.02

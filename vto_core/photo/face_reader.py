@@ -32,6 +32,15 @@ RAW_SCORE_LIMIT = 80.0
 MIN_FACE_SCORE = 0.75
 ROI_SCALE = 1.5  # the mesh reads the detection box enlarged this much, made square on its longer side
 RIGHT_EYE_CORNER, LEFT_EYE_CORNER = 33, 263  # mesh landmarks: the outer eye corners, image left then right
+RIGHT_MOUTH_CORNER, LEFT_MOUTH_CORNER = 61, 291  # the mouth's corners, image left then right (upright)
+# Quarter and half turns (radians, clockwise) the detector also looks through when the upright pass finds no face: a
+# photo on its side or upside down, which BlazeFace, trained on faces near upright, does not see.
+TURNS = (math.pi / 2, -math.pi / 2, math.pi)
+REFINE_PASSES = 3  # mesh passes on the region the last landmarks give, while the roll still moves by ...
+SETTLED_ROLL = math.radians(5)  # ... more than this (a face turned far from the detector's view settles in 2-3)
+# The mesh's face logit (before its sigmoid) under which a reading may be upside down: on the 18 benchmark portraits a
+# face read the right way up scores 39-55; turned 180 degrees and read upright, 5.6 at most (31-44 once turned back).
+SURE_FACE_LOGIT = 20.0
 MAX_FACES_CHECKED = 8  # detections the mesh looks at, largest first (each ~3 ms)
 RIGHT_EYE, LEFT_EYE = 0, 1  # detector keypoints: the subject's right eye (image left), left eye; then nose, mouth...
 TILE_GRIDS = (2, 3)  # the second detector pass, when the whole image shows no face: 2 x 2, then 3 x 3 squares
@@ -228,6 +237,20 @@ def face_region(detection: Detection) -> tuple[np.ndarray, float, float]:
     return centre, float(side), angle - 2 * math.pi * math.floor((angle + math.pi) / (2 * math.pi))
 
 
+def roll_of(landmarks: np.ndarray) -> float:
+    """The face's roll in radians, clockwise on screen (0 upright, +-pi upside down), from its (468, 2) landmarks:
+    the mean direction of the line through the outer eye corners and of the line through the mouth's corners."""
+    lines = [landmarks[end].astype(np.float64) - landmarks[start]
+             for start, end in ((RIGHT_EYE_CORNER, LEFT_EYE_CORNER), (RIGHT_MOUTH_CORNER, LEFT_MOUTH_CORNER))]
+    direction = sum(line / max(float(np.hypot(*line)), 1e-9) for line in lines)
+    return math.atan2(float(direction[1]), float(direction[0]))
+
+
+def turn_between(a: float, b: float) -> float:
+    """a - b in radians, wrapped into [-pi, pi)."""
+    return (a - b + math.pi) % (2 * math.pi) - math.pi
+
+
 def landmarks_region(landmarks: np.ndarray) -> tuple[np.ndarray, float, float]:
     """The mesh's (468, 2) landmarks -> the region for a second mesh pass: centre (2,), side px, angle rad (as
     MediaPipe's landmarks-to-ROI: turned by the line through the outer eye corners 33 and 263, the landmarks' box in
@@ -301,8 +324,9 @@ class FaceReader:
         to_pixels[:, :2] *= DETECTOR_SIZE  # the detections are in [0, 1] of the square
         found = []
         for detection in weighted_nms(scores, boxes, keypoints):
-            corners = apply_matrix(to_pixels, detection.box.reshape(2, 2)).ravel()
-            found.append(Detection(detection.score, corners, apply_matrix(to_pixels, detection.keypoints)))
+            corners = apply_matrix(to_pixels, detection.box.reshape(2, 2))  # swapped where the view is turned
+            box = np.concatenate([corners.min(axis=0), corners.max(axis=0)])
+            found.append(Detection(detection.score, box, apply_matrix(to_pixels, detection.keypoints)))
         return sorted(found, key=lambda d: -d.area)
 
     def detect_tiles(self, image: np.ndarray, found: list[Detection] = ()) -> list[Detection]:
@@ -343,18 +367,25 @@ class FaceReader:
                        ) -> tuple[np.ndarray, float]:
         """The mesh on the square region (centre (2,), side px, angle rad) of (H, W, 3) -> (468, 2) landmarks in
         image pixels and the face probability."""
+        landmarks, logit = self.mesh_read(image, centre, side, angle)
+        return landmarks, float(sigmoid(np.float64(logit)))
+
+    def mesh_read(self, image: np.ndarray, centre: np.ndarray, side: float, angle: float) -> tuple[np.ndarray, float]:
+        """mesh_landmarks with the face logit (clipped to +-RAW_SCORE_LIMIT) in place of its probability."""
         matrix = square_matrix(centre, side, angle, MESH_SIZE)
         points, logit = self.mesh.run(None, {self.mesh_input: warp(image, matrix, MESH_SIZE)[None]})
         points = points.reshape(-1, 3)[:, :2].astype(np.float64)
-        return apply_matrix(matrix, points).astype(np.float32), float(sigmoid(np.float64(logit.ravel()[0])))
+        clipped = float(np.clip(logit.ravel()[0], -RAW_SCORE_LIMIT, RAW_SCORE_LIMIT))
+        return apply_matrix(matrix, points).astype(np.float32), clipped
 
     def read(self, image: np.ndarray) -> FaceRead | None:
         """(H, W, 3) display sRGB (any size; NaN, inf and HDR values are cleaned; (H, W), (H, W, 4) and integer
         pixels taken too) -> the largest face the mesh accepts, or None.
 
         The detector runs on the whole image, and again on overlapping squares when that finds no face or only a small
-        one; the mesh checks each detection (largest first) and reads the largest face it accepts, twice (the second
-        time on the region its first landmarks give)."""
+        one, and through the image turned a quarter and a half turn when neither finds a face the mesh keeps. The mesh
+        checks each detection (largest first) and reads the largest face it accepts, then again on the region its
+        landmarks give until the face's roll settles (FaceReader.settled), so a face reads alike at any roll."""
         image = as_rgb(image)
         height, width = image.shape[:2]
         detections = self.detect(image)
@@ -363,16 +394,51 @@ class FaceReader:
             # No face, or a small one: a group or full-length photo, whose other faces the whole-image pass misses.
             tiled = self.accepted_faces(image, self.detect_tiles(image, detections))
             faces = tiled if len(tiled) >= len(faces) else faces
-        if not faces:
+        readings = [self.settled(image, faces, 0.0)] if faces else []
+        if not readings or not readings[0][1]:
+            # No face upright, or one the mesh does not keep on a second look: a face far turned.
+            for angle in TURNS:
+                turned = square_matrix(np.array([width / 2, height / 2]), max(height, width), angle, DETECTOR_SIZE)
+                found = self.accepted_faces(image, self.detect(image, turned))
+                readings += [self.settled(image, found, angle)] if found else []
+        kept = [reading for reading in readings if reading[1]] or readings
+        if not kept:
             return None
-        detection, landmarks, score = faces[0]
-        if self.refine:
-            refined, refined_score = self.mesh_landmarks(image, *landmarks_region(landmarks))
-            if refined_score >= MIN_FACE_SCORE:
-                landmarks, score = refined, refined_score
-        xmin, ymin, xmax, ymax = (float(v) for v in detection.box)
-        return FaceRead(landmarks, score, len(faces), (xmin, ymin, xmax - xmin, ymax - ymin))
+        # The surest reading; among equals, the one whose view saw the face nearest upright.
+        return max(kept, key=lambda r: (round(r[0].score, 2), -abs(turn_between(roll_of(r[0].landmarks), r[2]))))[0]
 
+    def settled(self, image: np.ndarray, faces: list[tuple[Detection, np.ndarray, float]], view: float
+                ) -> tuple[FaceRead, bool, float]:
+        """The largest of `faces` (accepted_faces, seen through a view turned by `view` rad) read again on the
+        region its landmarks give until its roll settles, and turned over where the mesh is unsure (an upside-down
+        face seen upright): (the face, whether the mesh kept it on the second look, view)."""
+        detection, landmarks, score = faces[0]
+        kept = True
+        if self.refine:
+            landmarks, logit, kept = self.settle(image, landmarks, score)
+            if logit < SURE_FACE_LOGIT:
+                centre, side, angle = landmarks_region(landmarks)
+                over, over_logit = self.mesh_read(image, centre, side, angle + math.pi)
+                if over_logit > logit:
+                    landmarks, logit, kept = self.settle(image, over, float(sigmoid(np.float64(over_logit))))
+            score = float(sigmoid(np.float64(logit)))
+        xmin, ymin, xmax, ymax = (float(v) for v in detection.box)
+        return FaceRead(landmarks, score, len(faces), (xmin, ymin, xmax - xmin, ymax - ymin)), kept, view
+
+    def settle(self, image: np.ndarray, landmarks: np.ndarray, score: float) -> tuple[np.ndarray, float, bool]:
+        """(468, 2) landmarks (face probability `score`) read again on the region they give, until the roll moves
+        less than SETTLED_ROLL (at most REFINE_PASSES): (the landmarks, the last kept pass's face logit, whether the
+        mesh kept the face on the first pass)."""
+        logit = float(np.log(score) - np.log1p(-score)) if score < 1 else RAW_SCORE_LIMIT
+        for attempt in range(REFINE_PASSES):
+            refined, refined_logit = self.mesh_read(image, *landmarks_region(landmarks))
+            if sigmoid(np.float64(refined_logit)) < MIN_FACE_SCORE:
+                return landmarks, logit, attempt > 0
+            moved = abs(turn_between(roll_of(refined), roll_of(landmarks)))
+            landmarks, logit = refined, refined_logit
+            if moved < SETTLED_ROLL:
+                break
+        return landmarks, logit, True
 
 _READERS: dict[tuple, FaceReader] = {}
 

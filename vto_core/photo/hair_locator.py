@@ -20,8 +20,8 @@ import numpy as np
 
 from ..colour import srgb_to_lab
 from ..errors import VtoError
-from .face_reader import FaceRead, as_rgb, polygon_mask, reduce, sample_bilinear, tight_box, warp
 from ..inference import cpu_session, file_key
+from .face_reader import FaceRead, as_rgb, polygon_mask, reduce, sample_bilinear, square_matrix, tight_box, warp
 from .photo_light import PhotoLight, neutral_photo
 
 SEGMENTER_SIZE = 256  # selfie segmentation: (1, 3, 256, 256) display RGB in [0, 1] -> (1, 1, 256, 256) person
@@ -32,6 +32,7 @@ FOREHEAD, CHIN, RIGHT_CHEEK, LEFT_CHEEK = 10, 152, 234, 454
 # The head's region, in face heights (forehead landmark to chin) up and down and face widths to each side of the
 # face's centre: long hair falls past the chin to the shoulders.
 REGION_UP, REGION_DOWN, REGION_SIDE = 1.0, 1.4, 1.6
+UPRIGHT_ROLL = math.radians(5)  # a head rolled more than this is shown to the person model turned upright
 WORK_FACE_HEIGHT = 56  # px per face height where the hair is found
 # The seed: above the forehead landmark (which sits 0.1-0.25 face heights below the hairline) by this many face
 # heights, within this many face widths of the face's centre line.
@@ -185,18 +186,22 @@ class HeadFrame:
 
     def segmenter_matrix(self) -> np.ndarray:
         """(2, 3) the model's 256 x 256 input onto the square around the region (the head and shoulders, as a selfie
-        frames them)."""
-        x0, y0, w, h = self.box
-        side = max(w, h)
-        return np.array([[side / SEGMENTER_SIZE, 0.0, x0 + (w - side) / 2],
-                         [0.0, side / SEGMENTER_SIZE, y0 + (h - side) / 2]])
+        frames them), turned with the head where it is tilted: the model, like a selfie, expects a person upright."""
+        roll = math.atan2(self.right[1], self.right[0])
+        if abs(roll) <= UPRIGHT_ROLL:
+            x0, y0, w, h = self.box
+            side = max(w, h)
+            return np.array([[side / SEGMENTER_SIZE, 0.0, x0 + (w - side) / 2],
+                             [0.0, side / SEGMENTER_SIZE, y0 + (h - side) / 2]])
+        side = max((1 + REGION_UP + REGION_DOWN) * self.face_height, 2 * REGION_SIDE * self.face_width)
+        centre = self.centre + self.up * ((REGION_UP - REGION_DOWN) / 2 * self.face_height)
+        return square_matrix(centre, side, roll, SEGMENTER_SIZE)
 
     def sample_person(self, probability: np.ndarray) -> np.ndarray:
         """The segmenter's (256, 256) output on the work grid (rows, cols)."""
-        x0, y0, w, h = self.box
-        side = max(w, h)
-        u = (self.xs - (x0 + (w - side) / 2)) * SEGMENTER_SIZE / side
-        v = (self.ys - (y0 + (h - side) / 2)) * SEGMENTER_SIZE / side
+        to_model = np.linalg.inv(np.vstack([self.segmenter_matrix(), [0.0, 0.0, 1.0]]))
+        u = to_model[0, 0] * self.xs + to_model[0, 1] * self.ys + to_model[0, 2]
+        v = to_model[1, 0] * self.xs + to_model[1, 1] * self.ys + to_model[1, 2]
         return sample_bilinear(probability[..., None].astype(np.float32), u, v)[0]
 
     def polygon(self, points: np.ndarray) -> np.ndarray:

@@ -49,6 +49,9 @@ SCENE_CAST_SIGMA = WARM_COOL
 ANY_CAST_SIGMA = 0.6
 STRONG_LIGHT_PRIOR = 0.5  # the prior probability that a photo's light is not the default scene's
 MAX_GAIN = 8.0  # no estimated gain goes beyond this either way (a skin of one flat channel, a synthetic image)
+# A skin whose linear channels differ by less than this (log units, about 2 %) shows no colour, so no light's colour
+# can be read from it (a black-and-white photo): the light is kept, not read as a cast.
+NO_CHROMA_LOG = 0.02
 TABLE_SIZE = 65536
 TABLE_LINEAR = srgb_to_linear(np.linspace(0.0, 1.0, TABLE_SIZE, dtype=np.float32))  # the table's inputs, linear
 NEUTRAL_KELVIN = 6504.0  # the black body nearest D65, the white of sRGB: what a daylight-balanced photo shows neutral
@@ -85,7 +88,8 @@ def read_log_light(deviation: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class PhotoLight:
     """A photo's light as read from its skin: per-channel linear gains (3,) against the default scene's light, and
-    where they were read ('skin', or 'none' when the photo shows no skin to read them from: gains 1)."""
+    where they were read ('skin'; 'none' when the photo shows no skin to read them from, 'grey' when its skin shows
+    no colour: gains 1)."""
 
     gains: np.ndarray
     read_from: str
@@ -99,6 +103,8 @@ class PhotoLight:
         """One short line for the artist (the panel shows it under the thumbnail): what was read and taken out."""
         if self.read_from == "none":
             return "no skin to read the photo's light from"
+        if self.read_from == "grey":
+            return "no colour in the skin to read the photo's light from"
         red, _, blue = self.cast
         warmth = "neutral" if abs(math.log(red / blue)) < 0.1 else ("warm" if red > blue else "cool")
         return f"photo's light taken out: {warmth}"
@@ -106,12 +112,16 @@ class PhotoLight:
 
 def light_from_skin(skin_linear: np.ndarray | None) -> PhotoLight:
     """The light (PhotoLight) whose gains most likely turned a default-scene skin into `skin_linear` (3,, the mean
-    linear RGB of the skin beside the lips, vto_core.appearance.skin_colour); gains 1 for None (no skin seen).
-    Finite for any input: non-finite or non-positive channels are floored, the gains clipped to MAX_GAIN."""
+    linear RGB of the skin beside the lips, vto_core.appearance.skin_colour); gains 1 for None (no skin seen) and for
+    a grey skin (no colour to read a light's colour from). Finite for any input: non-finite or non-positive channels
+    are floored, the gains clipped to MAX_GAIN."""
     if skin_linear is None:
         return PhotoLight(np.ones(3), "none")
     skin = np.nan_to_num(np.asarray(skin_linear, np.float64), nan=0.0, posinf=1.0, neginf=0.0)
-    log_gains = read_log_light(np.log(np.maximum(skin, 1e-4)) - SKIN_LOG_MEAN)
+    log_skin = np.log(np.maximum(skin, 1e-4))
+    if np.ptp(log_skin) < NO_CHROMA_LOG:
+        return PhotoLight(np.ones(3), "grey")
+    log_gains = read_log_light(log_skin - SKIN_LOG_MEAN)
     return PhotoLight(np.clip(np.exp(log_gains), 1.0 / MAX_GAIN, MAX_GAIN), "skin")
 
 
@@ -139,7 +149,7 @@ def relit(image: np.ndarray, gains: np.ndarray) -> np.ndarray:
 
 def neutral_photo(image: np.ndarray, light: PhotoLight) -> np.ndarray:
     """(H, W, 3) display with `light` taken out: what it would show under the default scene's light."""
-    if light.read_from == "none":
+    if light.read_from != "skin":
         return np.asarray(image, np.float32)
     return relit(image, 1.0 / light.gains)
 

@@ -387,3 +387,53 @@ def test_a_picture_without_hair_is_one_line_exit_2_and_nothing_written(picture, 
                     "--out-params", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "no hair found" in err[0] and not out.exists()
+
+
+def write_stored(path, pixels, orientation):
+    """An 8-bit image of `pixels` laid as stored, tagged with an EXIF Orientation (a TIFF: lossless, so orientations
+    compare exactly; JPEG's tags read alike, tests/vto_core/test_imageio.py)."""
+    import OpenImageIO as oiio
+
+    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], 3, "uint8")
+    spec.attribute("Orientation", orientation)
+    output = oiio.ImageOutput.create(str(path))
+    output.open(str(path), spec)
+    output.write_image(np.ascontiguousarray(np.rint(np.clip(pixels, 0, 1) * 255).astype(np.uint8)))
+    output.close()
+    return path
+
+
+@pytest.mark.parametrize("renderer", ["lipstick", "hair"])
+def test_a_photo_stored_sideways_as_phones_store_it_reads_as_upright(renderer, models, portrait, tmp_path, capsys):
+    """Orientation 6 (the camera held upright, the pixels stored turned 90 degrees anticlockwise) and 3 (upside
+    down): the same estimate as the upright file, and the face reads upright."""
+    model = models[0] if renderer == "lipstick" else HAIR_MODEL
+    whole = read_image(portrait)[0]
+    paths = {1: write_stored(tmp_path / "upright.tif", whole, 1),
+             6: write_stored(tmp_path / "sideways.tif", np.rot90(whole, 1), 6),
+             3: write_stored(tmp_path / "upside_down.tif", whole[::-1, ::-1], 3)}
+    values = {}
+    for orientation, path in paths.items():
+        out = tmp_path / f"{orientation}.json"
+        assert cli.run(["match", "--model", model, "--image", str(path), "--out-params", str(out)]) == 0
+        printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+        assert abs(printed["lips" if renderer == "lipstick" else "hair"]["turn"]) < 5
+        values[orientation] = np.array(list(parse_params(str(out), renderer).values()))
+    assert np.allclose(values[6], values[1], atol=1e-4) and np.allclose(values[3], values[1], atol=1e-4)
+
+
+@pytest.mark.parametrize("renderer", ["lipstick", "hair"])
+@pytest.mark.parametrize("print_kind", ["black and white", "one channel", "sepia"])
+def test_a_photo_without_colour_is_one_line_exit_2_and_nothing_written(renderer, print_kind, models, portrait,
+                                                                        tmp_path, capsys):
+    whole = read_image(portrait)[0]
+    grey = whole @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    image = {"black and white": np.repeat(grey[..., None], 3, axis=2), "one channel": grey,
+             "sepia": np.clip(grey[..., None] * np.array([1.07, 0.94, 0.74], np.float32), 0, 1)}[print_kind]
+    write_image(tmp_path / "print.jpg", image)
+    out = tmp_path / "params.json"
+    model = models[0] if renderer == "lipstick" else HAIR_MODEL
+    assert cli.run(["match", "--model", model, "--image", str(tmp_path / "print.jpg"), "--out-params", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    kind = "a monochrome (toned) print" if print_kind == "sepia" else "a black-and-white photo"
+    assert len(err) == 1 and f"{kind} has no {renderer} colour to read" in err[0] and not out.exists()

@@ -211,3 +211,93 @@ def test_hair_is_found_under_a_warm_or_cool_light_as_under_a_neutral_one():
     for kelvin in (3200.0, 7500.0):
         found = hair_reference(relit(photo, kelvin_gains(kelvin, 0.0))).hair.mask > 0.5
         assert (found & neutral).sum() / (found | neutral).sum() >= 0.8, kelvin
+
+
+def turned_photo(photo, degrees):
+    """(H, W, 3) turned `degrees` clockwise on a canvas grown to hold it (OpenImageIO), as a tilted selfie."""
+    import OpenImageIO as oiio
+
+    if degrees == 180:
+        return np.ascontiguousarray(photo[::-1, ::-1])
+    turned = oiio.ImageBufAlgo.rotate(oiio.ImageBuf(np.ascontiguousarray(photo)), np.radians(degrees),
+                                      recompute_roi=True)
+    return np.clip(turned.get_pixels(oiio.FLOAT)[..., :3], 0, 1)
+
+
+@pytest.mark.parametrize("degrees", [-30, 30, 180])
+def test_a_tilted_head_is_framed_upright_for_lips_and_hair(degrees):
+    """The astronaut tilted: the lips and the hair square reach the encoder turned upright, near what the upright
+    photo gives (each resized to the encoder's 64 px), and the panel is told."""
+    import skimage.data
+
+    from blender_addon.matching.reference import hair_reference, lips_reference
+    from vto_core.colour import srgb_to_lab
+    from vto_core.imageio import resize
+
+    photo = skimage.data.astronaut().astype(np.float32) / 255
+    tilted = turned_photo(photo, degrees)
+    upright, turned = lips_reference(photo), lips_reference(tilted)
+    assert upright.turn == 0.0 and abs((np.degrees(turned.turn) - degrees - 2.7 + 180) % 360 - 180) < 2
+    assert f"face turned {np.degrees(turned.turn):+.0f} degrees: read upright" in turned.notes
+    small = [resize(r.image, 64, 64) for r in (upright, turned)]
+    assert np.abs(small[0] - small[1]).mean() < 0.05  # the same picture, not a slanted one
+    sideways = resize(np.ascontiguousarray(np.rot90(upright.image)), 64, 64)
+    assert np.abs(small[0] - sideways).mean() > 2 * np.abs(small[0] - small[1]).mean()
+
+    def lips_lab(reference):
+        rgb, mask = reference.region
+        return srgb_to_lab(rgb[mask > 0.5].mean(axis=0))
+
+    assert np.linalg.norm(lips_lab(upright) - lips_lab(turned)) < 2.0
+    hair, turned_hair = hair_reference(photo), hair_reference(tilted)
+    assert turned_hair.turn == pytest.approx(turned.turn)
+    colours = [srgb_to_lab(r.image.mean(axis=(0, 1))) for r in (hair, turned_hair)]
+    assert np.linalg.norm(colours[0] - colours[1]) < 3.0
+
+
+@pytest.mark.parametrize("product", ["lipstick", "hair"])
+def test_black_and_white_and_toned_portraits_are_refused_in_one_line(product):
+    import skimage.data
+
+    from blender_addon.matching.reference import hair_reference, lips_reference
+
+    photo = skimage.data.astronaut().astype(np.float32) / 255
+    grey = np.repeat((photo @ np.array([0.2126, 0.7152, 0.0722], np.float32))[..., None], 3, axis=2)
+    sepia = np.clip(grey * np.array([1.07, 0.94, 0.74], np.float32), 0, 1)
+    read = lips_reference if product == "lipstick" else hair_reference
+    with pytest.raises(VtoError, match=f"^a black-and-white photo has no {product} colour to read"):
+        read(grey)
+    with pytest.raises(VtoError, match=f"^a monochrome \\(toned\\) print has no {product} colour to read"):
+        read(sepia)
+    assert hair_reference(sepia[150:230, 20:100], find_hair=False).image.size  # a patch of one hue: may be hair
+
+
+@pytest.mark.blender
+def test_an_image_datablock_is_turned_as_its_files_orientation_says(tmp_path):
+    import bpy
+    import OpenImageIO as oiio
+
+    from blender_addon.matching.reference import datablock_pixels
+
+    shown = np.zeros((24, 40, 3), np.float32)
+    shown[:8, :8] = (1.0, 0.0, 0.0)  # red at the top left as a viewer shows it
+    stored = np.ascontiguousarray(np.rot90(shown, 1))  # Orientation 6: the viewer turns it 90 degrees clockwise
+    spec = oiio.ImageSpec(stored.shape[1], stored.shape[0], 3, "uint8")
+    spec.attribute("Orientation", 6)
+    path = tmp_path / "phone.jpg"
+    output = oiio.ImageOutput.create(str(path))
+    output.open(str(path), spec)
+    output.write_image(np.rint(stored * 255).astype(np.uint8))
+    output.close()
+    image = bpy.data.images.load(str(path))
+    try:
+        assert tuple(image.size) == (24, 40)  # Blender keeps the stored pixels
+        from_file = datablock_pixels(image)
+        image.pixels[0] = image.pixels[0]  # edited in Blender: read from its pixels, still turned as shown
+        assert image.is_dirty
+        from_pixels = datablock_pixels(image)
+        for pixels in (from_file, from_pixels):
+            assert pixels.shape == (24, 40, 3) and np.abs(pixels - shown).mean() < 0.02
+            assert pixels[:6, :6, 0].mean() > 0.9 and pixels[-6:, -6:, 0].mean() < 0.1  # red at the top left
+    finally:
+        bpy.data.images.remove(image)

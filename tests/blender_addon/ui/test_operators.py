@@ -20,7 +20,7 @@ from blender_addon.matching import apply  # noqa: E402
 from blender_addon.matching.photo_fit import NOT_OFFERED  # noqa: E402
 from blender_addon.matching.reference import load_reference  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
-from vto_core.imageio import write_image  # noqa: E402
+from vto_core.imageio import read_image, write_image  # noqa: E402
 from vto_core.inference import EncoderSession, cached_session  # noqa: E402
 from vto_core.specs import get_spec  # noqa: E402
 
@@ -267,7 +267,8 @@ def odd_files(tmp_path):
     nan[2:5, 3:9] = np.nan
     write_image(tmp_path / "nan.exr", nan, bits="float")
     write_image(tmp_path / "all_nan.exr", np.full((16, 16, 3), np.nan, np.float32), bits="float")
-    write_image(tmp_path / "wide.png", np.tile(image[:16, :1], (1, 4096, 1)) * np.linspace(0.2, 1, 4096)[None, :, None])
+    wide = np.tile(image[:16], (1, 4096 // image.shape[1] + 1, 1))[:, :4096]  # colour in it: not a toned print
+    write_image(tmp_path / "wide.png", wide * np.linspace(0.2, 1, 4096)[None, :, None])
     (tmp_path / "junk.onnx").write_bytes(b"not a model")
     (tmp_path / "truncated.onnx").write_bytes(Path(MODEL).read_bytes()[:100_000])
     value = helper.make_tensor_value_info("x", TensorProto.FLOAT, [1])
@@ -291,6 +292,7 @@ BAD = [
     ({"image_path": "{tmp}/notes.png"}, "cannot read image"),
     ({"image_path": "{tmp}/one.png"}, "image is 1x1; at least 8x8"),
     ({"image_path": "{tmp}/all_nan.exr"}, "every pixel is NaN or infinite"),
+    ({"image_path": "{tmp}/grey.png"}, "a black-and-white photo has no lipstick colour to read"),
     ({"image_name": "no such image"}, "no image 'no such image' in this .blend"),
     ({"model_path": "{tmp}/none.onnx"}, "no encoder model"),
     ({"model_path": "{tmp}/junk.onnx"}, "cannot load"),
@@ -340,7 +342,7 @@ def test_a_material_without_the_group_or_with_a_linked_input_changes_nothing(ref
     assert inputs_of(name) == before
 
 
-@pytest.mark.parametrize("name", ["grey.png", "deep.png", "rgba.png", "nan.exr", "wide.png"])
+@pytest.mark.parametrize("name", ["deep.png", "rgba.png", "nan.exr", "wide.png"])
 def test_unusual_but_valid_images_are_matched(name, material, odd_files):
     path = str(odd_files / name)
     assert run_match(material=material, image_path=path) == ({"FINISHED"}, None)
@@ -490,6 +492,29 @@ def test_the_thumbnail_outlines_the_lips_found():
     cyan = np.all(np.isclose(canvas[..., :3], LIPS_COLOUR), axis=-1)
     rows, cols = np.nonzero(cyan)
     assert cyan.sum() > 100 and abs(cols.mean() - 64) < 6 and abs(rows.mean() - 64) < 6  # the lens, centred
+
+
+def test_the_thumbnail_draws_a_tilted_faces_frame_turned_on_the_photo_as_shown(portrait):
+    import OpenImageIO as oiio
+
+    from blender_addon.matching.reference import lips_reference, turned_lips_square
+    from blender_addon.ui.thumbnail import CROP_COLOUR, SIZE, compose
+
+    photo = read_image(portrait)[0]
+    tilted = np.clip(oiio.ImageBufAlgo.rotate(oiio.ImageBuf(photo), np.radians(30), recompute_roi=True)
+                     .get_pixels(oiio.FLOAT)[..., :3], 0, 1)
+    reference = lips_reference(tilted)
+    canvas = compose(tilted, None, None, reference.lips)
+    frame = np.all(np.isclose(canvas[..., :3], CROP_COLOUR), axis=-1)
+    centre, side = turned_lips_square(reference.lips.outer, reference.turn)
+    across = np.array([np.cos(reference.turn), np.sin(reference.turn)])
+    down = np.array([-across[1], across[0]])
+    scale, offset = SIZE / max(tilted.shape[:2]), (SIZE - np.array(tilted.shape[1::-1]) * SIZE / max(tilted.shape[:2])) // 2
+    for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1)):  # each corner of the turned square is drawn
+        x, y = (centre + (across * sx + down * sy) * side / 2) * scale + offset
+        assert frame[int(y) - 2:int(y) + 3, int(x) - 2:int(x) + 3].any(), (sx, sy)
+    rows = np.nonzero(frame.any(axis=1))[0]
+    assert max(frame[row].sum() for row in rows) < 0.8 * side * scale  # no row holds a level edge: it is turned
 
 
 def test_the_thumbnail_outlines_the_hair_found():

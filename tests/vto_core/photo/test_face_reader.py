@@ -101,3 +101,33 @@ def test_sampling_reproduces_and_pads_with_black():
                        [[2.5 / 16, 4.5 / 16], [10.5 / 16, 12.5 / 16]])
 
 
+
+
+def turned(image, quarter_turns):
+    """(H, W, 3) turned anticlockwise by quarter turns, and the map of a point of the upright image into it."""
+    height, width = image.shape[:2]
+    turn = {0: lambda p: p, 1: lambda p: np.stack([p[:, 1], width - p[:, 0]], 1),
+            2: lambda p: np.stack([width - p[:, 0], height - p[:, 1]], 1),
+            3: lambda p: np.stack([height - p[:, 1], p[:, 0]], 1)}[quarter_turns]
+    return np.ascontiguousarray(np.rot90(image, quarter_turns)), turn
+
+
+@pytest.mark.parametrize("quarter_turns", [1, 2, 3])
+def test_a_face_on_its_side_or_upside_down_reads_as_upright(reader, astronaut, quarter_turns):
+    upright = reader.read(astronaut)
+    image, turn = turned(astronaut, quarter_turns)
+    face = reader.read(image)
+    assert face is not None and face.faces == 1
+    lips = [61, 291, 0, 17]  # the mouth's corners, its top and bottom: where the lips are framed
+    assert np.abs(face.landmarks[lips] - turn(upright.landmarks[lips])).max() < 3.0
+    expected = fr.roll_of(upright.landmarks) - quarter_turns * np.pi / 2
+    assert abs(fr.turn_between(fr.roll_of(face.landmarks), expected)) < np.radians(4)
+
+
+def test_roll_is_read_from_the_eyes_and_the_mouth(reader, astronaut):
+    face = reader.read(astronaut)
+    assert abs(np.degrees(fr.roll_of(face.landmarks))) < 5  # she sits nearly upright
+    flipped = face.landmarks.copy()
+    flipped[:, 1] *= -1  # mirrored top to bottom: the same lines, their y reversed
+    assert fr.roll_of(flipped) == pytest.approx(-fr.roll_of(face.landmarks))
+    assert fr.turn_between(np.radians(179), np.radians(-179)) == pytest.approx(np.radians(-2))

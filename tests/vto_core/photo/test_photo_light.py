@@ -119,3 +119,11 @@ def test_a_large_photo_is_re_lit_through_tables_within_1e_4_of_the_exact_curves(
     large = np.tile(small, (60, 60, 1))  # 1,440,000 values: read from the tables
     gains = kelvin_gains(3200, 0.4)
     np.testing.assert_allclose(relit(large, gains), np.tile(relit(small, gains), (60, 60, 1)), atol=1e-4)
+
+
+def test_a_grey_skin_reads_no_light_and_changes_nothing():
+    light = light_from_skin(np.array([0.2, 0.2, 0.2]))
+    assert light.read_from == "grey" and np.allclose(light.gains, 1.0) and "no colour" in light.describe()
+    image = np.random.default_rng(1).random((4, 5, 3)).astype(np.float32)
+    assert np.array_equal(neutral_photo(image, light), image)
+    assert light_from_skin(np.array([0.2, 0.21, 0.2])).read_from == "skin"  # 5 % apart is a colour
