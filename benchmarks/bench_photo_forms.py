@@ -5,7 +5,8 @@
 For each portrait of benchmarks/photos with a face: the upright photo is saved as a TIFF (lossless, Orientation 1);
 then (a) stored in each of the eight EXIF orientations, its pixels laid so that a viewer shows it upright; (b) turned
 -45 to 45 degrees in steps of 15, and 180, its canvas grown to hold it (black corners). Each goes through `vto match`
-(Fast) for lips and for hair (the hair found in the whole portrait). Figure: the CIEDE2000 between the apparent colour
+(Fast) for lips and for hair (the hair found in the whole portrait). TIFFs are lossless, so every orientation
+stores the same pixels. Figure: the CIEDE2000 between the apparent colour
 (on default sources 0-7, blender_addon.matching.photo_fit.apparent_colour) of the estimate and that of the upright
 photo's estimate. (c) Monochrome: colour_spread and grey chroma (vto_core.photo.monochrome) of each photo, of it
 desaturated to 40 %, and of its black-and-white, sepia and cyanotype JPEGs, with the margins to the thresholds.
@@ -36,19 +37,6 @@ STORED = {1: lambda a: a, 2: lambda a: a[:, ::-1], 3: lambda a: a[::-1, ::-1], 4
           5: lambda a: a.swapaxes(0, 1), 6: lambda a: np.rot90(a, 1), 7: lambda a: a[::-1, ::-1].swapaxes(0, 1),
           8: lambda a: np.rot90(a, -1)}
 RESULT = Path(__file__).parent / "results" / "photo_forms.md"
-
-
-def write_tagged(path: Path, pixels: np.ndarray, orientation: int) -> Path:
-    """pixels (H, W, 3) in [0, 1] as an 8-bit TIFF whose Orientation tag is `orientation`."""
-    import OpenImageIO as oiio
-
-    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], 3, "uint8")
-    spec.attribute("Orientation", orientation)
-    output = oiio.ImageOutput.create(str(path))
-    output.open(str(path), spec)
-    output.write_image(np.ascontiguousarray(np.rint(np.clip(pixels, 0, 1) * 255).astype(np.uint8)))
-    output.close()
-    return path
 
 
 def tilted(photo: np.ndarray, degrees: float) -> np.ndarray:
@@ -86,10 +74,10 @@ def forms(records: list[dict], work: Path) -> tuple[list, dict]:
     for record in records:
         photo = load_photo(record, PHOTOS.parent)
         stem = Path(record["file"]).stem.replace(":", "_").replace("/", "_")
-        paths = {"upright": write_tagged(work / f"{stem}_o1.tif", photo, 1)}
+        paths = {"upright": write_image(work / f"{stem}_o1.tif", photo)}
         for orientation in range(2, 9):
-            paths[f"EXIF {orientation}"] = write_tagged(work / f"{stem}_o{orientation}.tif",
-                                                        STORED[orientation](photo), orientation)
+            paths[f"EXIF {orientation}"] = write_image(work / f"{stem}_o{orientation}.tif",
+                                                       STORED[orientation](photo), orientation=orientation)
         for degrees in TILTS:
             paths[f"tilt {degrees:+d}"] = write_image(work / f"{stem}_t{degrees}.png", tilted(photo, degrees))
         for renderer in ("lipstick", "hair"):
@@ -150,14 +138,14 @@ def monochrome_rows(records: list[dict], work: Path) -> tuple[list, dict]:
 
 def times(record: dict, work: Path) -> list[list]:
     """Times (ms, best of 5) on one portrait resized to about a megapixel."""
-    from vto_core.imageio import read_image, resize
+    from vto_core.imageio import read_image, resize, write_image
     from vto_core.photo import face_reader
     from vto_core.photo.monochrome import monochrome_problem
 
     photo = load_photo(record, PHOTOS.parent)
     scale = math.sqrt(1.0e6 / (photo.shape[0] * photo.shape[1]))
     photo = resize(photo, round(photo.shape[0] * scale), round(photo.shape[1] * scale))
-    path = write_tagged(work / "megapixel.tif", photo, 1)
+    path = write_image(work / "megapixel.tif", photo)
     reader = face_reader.FaceReader(MODELS / "face_detector.onnx", MODELS / "face_landmarks.onnx")
 
     def best(fn, repeats=5):

@@ -193,13 +193,14 @@ def _quantised(pixels, bits):
     return np.rint(np.clip(pixels, 0.0, 1.0) * max_code).astype(int_type)
 
 
-def write_image(path, rgb, alpha=None, bits=None):
+def write_image(path, rgb, alpha=None, bits=None, orientation=1):
     """Write rgb (H,W,3) or gray (H,W) and optional alpha (H,W) atomically to `path`; return the path.
 
     The format comes from the extension: .png (bits 8 or 16), .jpg/.jpeg (8,
     no alpha), .exr ('half' or 'float'), .tif/.tiff (8, 16 or 'float'); the
     first listed is the default.  Integer formats clip to [0, 1] and refuse
-    NaN/inf.  The data go to a temporary file beside `path` that replaces it
+    NaN/inf.  orientation: the EXIF/TIFF Orientation tag (1-8) stored with
+    the pixels, which are written as given (a phone's sideways photo).  The data go to a temporary file beside `path` that replaces it
     only once complete, so a failed write leaves `path` untouched.
     """
     import OpenImageIO as oiio
@@ -216,6 +217,8 @@ def write_image(path, rgb, alpha=None, bits=None):
     spec.alpha_channel = channel_count - 1 if alpha is not None else -1
     # Without this OIIO un-premultiplies colour before writing straight-alpha formats (PNG).
     spec.attribute("oiio:UnassociatedAlpha", 1)
+    if orientation != 1:
+        spec.attribute("Orientation", int(orientation))
 
     # Keep the real extension last so OIIO picks the format from the temp name.
     stem, extension = os.path.splitext(path)

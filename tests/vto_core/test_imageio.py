@@ -367,16 +367,6 @@ def test_import_needs_neither_openimageio_nor_blender_nor_torch():
     assert completed.returncode == 0, completed.stderr
 
 
-def _write_tagged(path, pixels, orientation):
-    """8-bit pixels (H, W, 3) in [0, 1] stored as they are, with the Orientation tag set."""
-    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], 3, "uint8")
-    spec.attribute("Orientation", orientation)
-    output = oiio.ImageOutput.create(str(path))
-    assert output.open(str(path), spec)
-    output.write_image(np.ascontiguousarray(np.rint(pixels * 255).astype(np.uint8)))
-    output.close()
-
-
 @pytest.mark.parametrize("orientation", range(1, 9))
 @pytest.mark.parametrize("extension", [".jpg", ".tif"])
 def test_each_orientation_is_read_as_a_viewer_shows_it(tmp_path, orientation, extension):
@@ -386,7 +376,7 @@ def test_each_orientation_is_read_as_a_viewer_shows_it(tmp_path, orientation, ex
     stored[:8, :8, 0] = 1.0  # a red corner at the stored top left, a green one at the stored top right
     stored[:8, -8:, 1] = 1.0
     path = tmp_path / f"tagged{extension}"
-    _write_tagged(path, stored, orientation)
+    write_image(path, stored, orientation=orientation)
     shown, _ = read_image(path)
     with Image.open(path) as picture:  # Pillow's exif_transpose: what viewers show
         expected = np.asarray(ImageOps.exif_transpose(picture).convert("RGB"), np.float32) / 255

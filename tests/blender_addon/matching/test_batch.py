@@ -261,3 +261,17 @@ def test_hair_batch_finds_the_hair_in_portraits_and_a_mask_beside_a_photo_wins(t
     presets = load_presets("hair", out / "presets.json")
     assert presets["found"] == pytest.approx(photo_estimate(session, "hair", photos / "found.png"), abs=1e-4)
     assert presets["found"] != pytest.approx(presets["painted"], abs=1e-3)
+
+
+def test_a_photo_stored_sideways_is_estimated_as_it_is_shown(photos, tmp_path):
+    """A phone's JPEG keeps its pixels sideways and says so in its EXIF Orientation: batch reads it upright."""
+    folder = tmp_path / "phone"
+    folder.mkdir()
+    upright = read_image(photos / "classic-red_s1.png")[0]
+    write_image(folder / "upright_s1.tif", upright)
+    write_image(folder / "sideways_s1.tif", np.rot90(upright, 1), orientation=6)  # as a phone held upright stores it
+    out = tmp_path / "out"
+    assert cli.run(["batch", "--model", MODEL, "--images", str(folder), "--out", str(out), "--group-by",
+                    r"^(.+)_s\d+", "--res", str(RES), "--samples", str(SAMPLES), "--quiet"]) == 0
+    written = load_presets("lipstick", out / "presets.json")
+    assert written["sideways"] == pytest.approx(written["upright"], abs=1e-6)

@@ -389,29 +389,16 @@ def test_a_picture_without_hair_is_one_line_exit_2_and_nothing_written(picture, 
     assert len(err) == 1 and "no hair found" in err[0] and not out.exists()
 
 
-def write_stored(path, pixels, orientation):
-    """An 8-bit image of `pixels` laid as stored, tagged with an EXIF Orientation (a TIFF: lossless, so orientations
-    compare exactly; JPEG's tags read alike, tests/vto_core/test_imageio.py)."""
-    import OpenImageIO as oiio
-
-    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], 3, "uint8")
-    spec.attribute("Orientation", orientation)
-    output = oiio.ImageOutput.create(str(path))
-    output.open(str(path), spec)
-    output.write_image(np.ascontiguousarray(np.rint(np.clip(pixels, 0, 1) * 255).astype(np.uint8)))
-    output.close()
-    return path
-
-
 @pytest.mark.parametrize("renderer", ["lipstick", "hair"])
 def test_a_photo_stored_sideways_as_phones_store_it_reads_as_upright(renderer, models, portrait, tmp_path, capsys):
     """Orientation 6 (the camera held upright, the pixels stored turned 90 degrees anticlockwise) and 3 (upside
     down): the same estimate as the upright file, and the face reads upright."""
     model = models[0] if renderer == "lipstick" else HAIR_MODEL
     whole = read_image(portrait)[0]
-    paths = {1: write_stored(tmp_path / "upright.tif", whole, 1),
-             6: write_stored(tmp_path / "sideways.tif", np.rot90(whole, 1), 6),
-             3: write_stored(tmp_path / "upside_down.tif", whole[::-1, ::-1], 3)}
+    # TIFFs: lossless, so the orientations compare exactly (JPEG's tags read alike, tests/vto_core/test_imageio.py)
+    paths = {1: write_image(tmp_path / "upright.tif", whole),
+             6: write_image(tmp_path / "sideways.tif", np.rot90(whole, 1), orientation=6),
+             3: write_image(tmp_path / "upside_down.tif", whole[::-1, ::-1], orientation=3)}
     values = {}
     for orientation, path in paths.items():
         out = tmp_path / f"{orientation}.json"

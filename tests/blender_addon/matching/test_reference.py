@@ -275,20 +275,14 @@ def test_black_and_white_and_toned_portraits_are_refused_in_one_line(product):
 @pytest.mark.blender
 def test_an_image_datablock_is_turned_as_its_files_orientation_says(tmp_path):
     import bpy
-    import OpenImageIO as oiio
 
     from blender_addon.matching.reference import datablock_pixels
+    from vto_core.imageio import write_image
 
     shown = np.zeros((24, 40, 3), np.float32)
     shown[:8, :8] = (1.0, 0.0, 0.0)  # red at the top left as a viewer shows it
     stored = np.ascontiguousarray(np.rot90(shown, 1))  # Orientation 6: the viewer turns it 90 degrees clockwise
-    spec = oiio.ImageSpec(stored.shape[1], stored.shape[0], 3, "uint8")
-    spec.attribute("Orientation", 6)
-    path = tmp_path / "phone.jpg"
-    output = oiio.ImageOutput.create(str(path))
-    output.open(str(path), spec)
-    output.write_image(np.rint(stored * 255).astype(np.uint8))
-    output.close()
+    path = write_image(tmp_path / "phone.jpg", stored, orientation=6)
     image = bpy.data.images.load(str(path))
     try:
         assert tuple(image.size) == (24, 40)  # Blender keeps the stored pixels
