@@ -38,11 +38,11 @@ from vto_core.inference import EncoderSession, cached_session
 from vto_core.specs import RendererSpec, get_spec
 
 from ..compat import uses_nodes
+from ..shipped import MODELS
 from .photo_fit import FIT_QUALITY, NO_REGION, QUALITIES, fit_photo_fast, iter_fit_photo, photo_values
 from .reference import absolute_path, read_reference
 from .refine import drain
 
-MODELS = Path(__file__).parent.parent / "models"
 
 
 def default_model(renderer: str) -> Path:

@@ -26,6 +26,8 @@ from vto_core.errors import VtoError
 from vto_core.hair import PHOTO_HAIR
 from vto_core.specs import RendererSpec
 
+from ..shipped import MODELS
+
 # Default-scene seeds the fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up. Lips: a pool
 # the fit picks the sources whose skin is most like the photo's from; hair: its sources in order.
 LIPS_POOL = tuple(range(900001, 900025))
@@ -223,7 +225,7 @@ def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
 
 def colour_imitator_path(renderer: str) -> Path:
     """The shipped colour imitator of `renderer`: blender_addon/models/<renderer>_colour.onnx."""
-    return Path(__file__).parent.parent / "models" / f"{renderer}_colour.onnx"
+    return MODELS / f"{renderer}_colour.onnx"
 
 
 def fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],

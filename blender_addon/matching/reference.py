@@ -23,9 +23,8 @@ from vto_core.photo.framing import (MIN_SIZE, cut, cut_read, face_roll, lips_fra
                                     view_cut)
 from vto_core.photo.photo_light import light_of
 
-MODELS = Path(__file__).parent.parent / "models"
-FACE_DETECTOR, FACE_LANDMARKS = "face_detector.onnx", "face_landmarks.onnx"  # blender_addon/models/face_locator.md
-PERSON_SEGMENTER = "person_segmenter.onnx"  # blender_addon/models/person_segmenter.md
+from ..shipped import FACE_DETECTOR, FACE_LANDMARKS, MODELS, PERSON_SEGMENTER, read_face
+
 NO_FACE_LIGHT = "no face: the photo's light is kept"  # a hair photo with no face to read its light from
 NO_FACE_HAIR = "no face: the whole image is read as hair"
 HAIR_SQUARE_SHARE = 0.95  # the hair encoder reads the largest square of a hair mask that is this share hair
@@ -174,13 +173,6 @@ class Reference:
     light: object = None
     hair: object = None  # vto_core.photo.hair_locator.HairFound where the hair was found in a portrait
     turn: float = 0.0  # radians, clockwise: how far `image` is turned from the photo (the face's roll), 0 on the grid
-
-
-def read_face(image: np.ndarray):
-    """The largest face of (H, W, 3) (vto_core.photo.face_reader.FaceRead) with the shipped face models, or None."""
-    from vto_core.photo.face_reader import cached_reader
-
-    return cached_reader(MODELS / FACE_DETECTOR, MODELS / FACE_LANDMARKS).read(image)
 
 
 def locate_lips(image: np.ndarray, face=None):

@@ -18,11 +18,12 @@ from vto_core.imageio import read_image, resize
 from vto_core.specs import RendererSpec, get_spec
 
 from ..compat import composite_output, compositor_tree, set_exr_output
+from ..shipped import DATA
 from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, set_blur_radius, set_lut, swatch_group
 from .cycles import configure_cycles, render_passes, to_display
 from .scene_hair import HAIR_PASS_INDEX, apply_source, build_hair_scene
 
-SWATCH_PATH = Path(__file__).parent.parent / "data" / "hair_swatch.png"
+SWATCH_PATH = DATA / "hair_swatch.png"
 PASS_SCENES = {SWATCH_GROUP: "VTO Hair Swatch Pass", COLOR_GROUP: "VTO Hair Color Pass"}
 # A hair region is cut from a render REGION_OVERSCAN times its size: the largest square at least REGION_SHARE hair.
 REGION_OVERSCAN, REGION_SHARE = 1.5, 0.98

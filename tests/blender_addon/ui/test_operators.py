@@ -19,6 +19,7 @@ import blender_addon  # noqa: E402
 from blender_addon.matching import apply  # noqa: E402
 from blender_addon.matching.photo_fit import NOT_OFFERED  # noqa: E402
 from blender_addon.matching.reference import load_reference  # noqa: E402
+from blender_addon.shipped import MODELS  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import read_image, write_image  # noqa: E402
 from vto_core.inference import EncoderSession, cached_session  # noqa: E402
@@ -554,7 +555,7 @@ def test_hair_is_found_in_a_portrait_by_the_operator_and_no_hair_changes_nothing
         assert run_match(target="HAIR", image_path=portrait) == ({"FINISHED"}, None)
     found = read_reference("hair", {"image_path": portrait})
     assert found.hair is not None
-    session = EncoderSession(str(apply.MODELS / "hair_encoder.onnx"))
+    session = EncoderSession(str(MODELS / "hair_encoder.onnx"))
     estimate = fast_values(session.spec, found, session.predict(found.image)[0])  # what batch and the operator write
     written = values()
     assert {k: written[k] for k in hair.modelled} == pytest.approx({k: estimate[k] for k in hair.modelled}, abs=1e-4)
