@@ -26,6 +26,7 @@ COMMANDS = {
     "export": ("training.cli", "cmd_export", "export an encoder run to ONNX"),
     "scene-params": ("blender_addon.renderers.scene_params", "cmd_scene_params",
                      "list which lipstick group inputs visibly change a user's scene (needs bpy)"),
+    "tryon": ("blender_addon.datasets.commands", "cmd_tryon", "draw a lipstick onto a portrait's lips (needs bpy)"),
     "match": ("pipeline.match", "cmd_match", "estimate a renderer's parameters from a reference image"),
     "batch": ("blender_addon.matching.batch", "cmd_batch",
               "estimate a folder of product photos: median presets, an asset library, a contact sheet"),

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 
 from vto_core.cli import ArgumentParser
 from vto_core.dataset import DEFAULT_RES, DEFAULT_SAMPLES
@@ -53,6 +54,47 @@ def cmd_render(argv: list[str]) -> int:
     image = render(args.renderer, values, args.source, args.res, args.samples, args.seed, args.lighting)
     write_image(args.out, image)
     print(json.dumps({"out": args.out, "renderer": args.renderer, "source": args.source, "params": values}))
+    return 0
+
+
+def tryon_params(text: str) -> dict[str, float]:
+    """--params of `vto tryon`: what parse_params reads, or a lipstick preset's bare name ('Classic Red')."""
+    from vto_core.presets import load_presets
+
+    presets = load_presets("lipstick")
+    if text in presets:
+        return presets[text]
+    return parse_params(text, "lipstick")
+
+
+def cmd_tryon(argv: list[str]) -> int:
+    """vto tryon lipstick --image PHOTO --params P --out OUT [--crop [N]] [--samples 16] [--seed 0]."""
+    from vto_core.imageio import read_image
+
+    from ..renderers.tryon import tryon_lipstick
+
+    parser = ArgumentParser(prog="vto tryon", description="draw a lipstick onto the lips of a portrait")
+    parser.add_argument("renderer", choices=["lipstick"])
+    parser.add_argument("--image", required=True, help="a portrait (any format the add-on reads)")
+    parser.add_argument("--params", required=True,
+                        help="a preset's name, preset:NAME, a JSON object or file (vto match's output too)")
+    parser.add_argument("--out", required=True, help="image file (.png, .jpg, .tif, .exr)")
+    parser.add_argument("--crop", type=int, nargs="?", const=64, default=None,
+                        help="write the lips framed as Match frames them, N x N px (default 64), not the whole photo")
+    parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES)
+    parser.add_argument("--seed", type=int, default=0, help="Cycles seed: a run is repeatable byte for byte")
+    args = parser.parse_args(argv)
+    if args.crop is not None and not 16 <= args.crop <= 1024:
+        raise VtoError(f"--crop must be in [16, 1024] px, got {args.crop}")
+    if not 1 <= args.samples <= 65536:
+        raise VtoError(f"--samples must be in [1, 65536], got {args.samples}")
+    values = get_spec("lipstick").check_values(tryon_params(args.params))
+    if not os.path.isfile(args.image):
+        raise VtoError(f"no image at {args.image}")
+    photo, _ = read_image(args.image)
+    image = tryon_lipstick(photo, values, crop=args.crop, samples=args.samples, seed=args.seed)
+    write_image(args.out, image)
+    print(json.dumps({"out": args.out, "image": args.image, "size": list(image.shape[1::-1]), "params": values}))
     return 0
 
 

@@ -208,8 +208,9 @@ def in_whole(lips, box: tuple[int, int, int, int], shape: tuple[int, int]):
     mask[y:y + h, x:x + w] = lips.mask
     offset = np.array([x, y], np.float32)
     lx, ly, lw, lh = lips.box
+    landmarks = None if lips.landmarks is None else np.asarray(lips.landmarks) + offset
     return dataclasses.replace(lips, mask=mask, box=(lx + x, ly + y, lw, lh), outer=np.asarray(lips.outer) + offset,
-                               inner=np.asarray(lips.inner) + offset)
+                               inner=np.asarray(lips.inner) + offset, landmarks=landmarks)
 
 
 def refuse_monochrome(whole: np.ndarray, product: str, toned: bool = True) -> None:

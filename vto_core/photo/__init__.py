@@ -1,1 +1,1 @@
-"""What reads a photo: the face, the lips and the hair found in it, and the photo's light."""
+"""What reads a photo and draws on it: the face, the lips and the hair found in it, its light, the lipstick tried on."""

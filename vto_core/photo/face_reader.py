@@ -75,6 +75,7 @@ class FaceRead:
     score: float  # the mesh's face probability
     faces: int  # faces found (detections the face mesh confirms)
     box: tuple[float, float, float, float]  # x, y, w, h of the detector's box of the face
+    depth: np.ndarray | None = None  # (468,) float32 each landmark's depth in image pixels, nearer the camera lower
 
     @property
     def note(self) -> str:
@@ -351,7 +352,7 @@ class FaceReader:
 
     def accepted_faces(self, image: np.ndarray, faces: list[Detection]) -> list[tuple[Detection, np.ndarray, float]]:
         """The detections (largest first; at most MAX_FACES_CHECKED) that the mesh takes for faces, each with its
-        (468, 2) landmarks in image pixels and its face probability."""
+        (468, 3) landmarks (x, y, depth in image pixels) and its face probability."""
         accepted = []
         for detection in faces[:MAX_FACES_CHECKED]:
             landmarks, score = self.landmarks(image, detection)
@@ -360,13 +361,14 @@ class FaceReader:
         return accepted
 
     def landmarks(self, image: np.ndarray, detection: Detection) -> tuple[np.ndarray, float]:
-        """(H, W, 3) and a face -> the mesh's (468, 2) landmarks in image pixels and its face probability."""
+        """(H, W, 3) and a face -> the mesh's (468, 3) landmarks (x, y, depth) in image pixels and its face
+        probability."""
         return self.mesh_landmarks(image, *face_region(detection))
 
     def mesh_landmarks(self, image: np.ndarray, centre: np.ndarray, side: float, angle: float
                        ) -> tuple[np.ndarray, float]:
-        """The mesh on the square region (centre (2,), side px, angle rad) of (H, W, 3) -> (468, 2) landmarks in
-        image pixels and the face probability."""
+        """The mesh on the square region (centre (2,), side px, angle rad) of (H, W, 3) -> (468, 3) landmarks (x, y,
+        depth; depth at the scale of x and y, nearer the camera lower) in image pixels and the face probability."""
         landmarks, logit = self.mesh_read(image, centre, side, angle)
         return landmarks, float(sigmoid(np.float64(logit)))
 
@@ -374,9 +376,10 @@ class FaceReader:
         """mesh_landmarks with the face logit (clipped to +-RAW_SCORE_LIMIT) in place of its probability."""
         matrix = square_matrix(centre, side, angle, MESH_SIZE)
         points, logit = self.mesh.run(None, {self.mesh_input: warp(image, matrix, MESH_SIZE)[None]})
-        points = points.reshape(-1, 3)[:, :2].astype(np.float64)
+        points = points.reshape(-1, 3).astype(np.float64)
         clipped = float(np.clip(logit.ravel()[0], -RAW_SCORE_LIMIT, RAW_SCORE_LIMIT))
-        return apply_matrix(matrix, points).astype(np.float32), clipped
+        depth = points[:, 2:] * (side / MESH_SIZE)
+        return np.concatenate([apply_matrix(matrix, points[:, :2]), depth], axis=1).astype(np.float32), clipped
 
     def read(self, image: np.ndarray) -> FaceRead | None:
         """(H, W, 3) display sRGB (any size; NaN, inf and HDR values are cleaned; (H, W), (H, W, 4) and integer
@@ -417,24 +420,25 @@ class FaceReader:
         if self.refine:
             landmarks, logit, kept = self.settle(image, landmarks, score)
             if logit < SURE_FACE_LOGIT:
-                centre, side, angle = landmarks_region(landmarks)
+                centre, side, angle = landmarks_region(landmarks[:, :2])
                 over, over_logit = self.mesh_read(image, centre, side, angle + math.pi)
                 if over_logit > logit:
                     landmarks, logit, kept = self.settle(image, over, float(sigmoid(np.float64(over_logit))))
             score = float(sigmoid(np.float64(logit)))
         xmin, ymin, xmax, ymax = (float(v) for v in detection.box)
-        return FaceRead(landmarks, score, len(faces), (xmin, ymin, xmax - xmin, ymax - ymin)), kept, view
+        box = (xmin, ymin, xmax - xmin, ymax - ymin)
+        return FaceRead(landmarks[:, :2], score, len(faces), box, landmarks[:, 2]), kept, view
 
     def settle(self, image: np.ndarray, landmarks: np.ndarray, score: float) -> tuple[np.ndarray, float, bool]:
-        """(468, 2) landmarks (face probability `score`) read again on the region they give, until the roll moves
+        """(468, 3) landmarks (face probability `score`) read again on the region they give, until the roll moves
         less than SETTLED_ROLL (at most REFINE_PASSES): (the landmarks, the last kept pass's face logit, whether the
         mesh kept the face on the first pass)."""
         logit = float(np.log(score) - np.log1p(-score)) if score < 1 else RAW_SCORE_LIMIT
         for attempt in range(REFINE_PASSES):
-            refined, refined_logit = self.mesh_read(image, *landmarks_region(landmarks))
+            refined, refined_logit = self.mesh_read(image, *landmarks_region(landmarks[:, :2]))
             if sigmoid(np.float64(refined_logit)) < MIN_FACE_SCORE:
                 return landmarks, logit, attempt > 0
-            moved = abs(turn_between(roll_of(refined), roll_of(landmarks)))
+            moved = abs(turn_between(roll_of(refined[:, :2]), roll_of(landmarks[:, :2])))
             landmarks, logit = refined, refined_logit
             if moved < SETTLED_ROLL:
                 break

@@ -42,6 +42,7 @@ class LipsFound:
     note: str  # "" or one sentence for the user
     landmarks: np.ndarray | None = None  # (468, 2) float32 the whole face mesh in image pixels; None for a close-up
     face_box: tuple[float, float, float, float] | None = None  # x, y, w, h of the detector's box of the face used
+    depth: np.ndarray | None = None  # (468,) float32 the face mesh's depth in image pixels, nearer lower
 
 
 def lips_mask(outer: np.ndarray, inner: np.ndarray, height: int, width: int
@@ -181,7 +182,8 @@ class LipsLocator:
             if not box[2]:
                 raise VtoError("no lips found: the face is too small in this image (its lips cover no pixel); "
                                "crop the face or give a mask")
-            return LipsFound(mask, box, outer, inner, "face", face.faces, face.score, face.note, landmarks, face.box)
+            return LipsFound(mask, box, outer, inner, "face", face.faces, face.score, face.note, landmarks, face.box,
+                             face.depth)
         rules, lens = close_up_test(image)
         if min(rules.values()) <= 0:
             raise VtoError("no lips found: no face in the image, and it is not a close-up of lips; crop the lips or "
