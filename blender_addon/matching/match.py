@@ -25,6 +25,7 @@ import numpy as np
 from vto_core.cli import ArgumentParser
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
+from vto_core.imageio import write_image
 from vto_core.inference import EncoderSession
 from vto_core.specs import get_spec
 
@@ -263,6 +264,9 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
                                                      "as the default scene frames its lips) or of the hair")
     parser.add_argument("--whole-image", action="store_true",
                         help="take the image (or crop) as it is instead of finding the lips or the hair in it")
+    parser.add_argument("--preview", default=None,
+                        help="lipstick: an image of the photo | the estimate tried on the photo | the estimate on the "
+                             "default lips (.png or .jpg)")
     parser.add_argument("--keep-light", action="store_true",
                         help="lipstick: read the photo's colours as they are, its light included (default: the light "
                              "is read from the skin beside the lips and taken out)")
@@ -283,17 +287,48 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
     if args.res is not None and not 8 <= args.res <= 4096 or not 1 <= args.samples <= 65536:
         raise VtoError(f"--res must be in [8, 4096] and --samples in [1, 65536], got {args.res} and {args.samples}")
     mask = os.path.abspath(args.mask) if args.mask else None
+    if args.preview is not None and not Path(args.preview).resolve().parent.is_dir():
+        raise VtoError(f"--preview: no folder {Path(args.preview).parent}")
     result = match(args.model, args.image, args.source, args.refine, args.imitator, args.res, args.samples, args.seed,
                    args.objective, args.start, imitator_refine, args.lighting, args.quality, parse_crop(args.crop),
                    mask, not args.whole_image, not args.keep_light)
+    sheet = None if args.preview is None else preview(result, args.image, args.samples, args.seed)
     for note in [result["note"], *result["notes"]]:
         if note:
             print(f"vto match: {note}", file=sys.stderr)
     temporary = out.with_name(out.name + ".tmp")
     temporary.write_text(json.dumps({"renderer": result["renderer"], "params": result["params"]}, indent=1) + "\n")
+    if sheet is not None:
+        write_image(args.preview, sheet)
     temporary.replace(out)
     print(json.dumps({"out": str(out), **result}))
     return 0
+
+
+PREVIEW_SIZE = 256  # px: each panel of `vto match --preview`
+
+
+def preview(result: dict, image_path: str, samples: int, seed: int) -> np.ndarray:
+    """(PREVIEW_SIZE, 3 PREVIEW_SIZE, 3): the photo around its lips | the estimate tried on it | the estimate on the
+    default lips (source 0); VtoError for hair, or a photo without a face to try it on."""
+    from vto_core.photo.framing import square_view, view_cut
+
+    from ..renderers.lipstick import render_lipstick
+    from ..renderers.tryon import find_lips, tryon_lipstick
+    from .reference import load_reference
+
+    if result["renderer"] != "lipstick":
+        raise VtoError("--preview shows a lipstick tried on the photo: hair has no try-on yet")
+    photo = load_reference(image_path)
+    lips = find_lips(photo)
+    worn = tryon_lipstick(photo, result["params"], samples=samples, seed=seed)
+    outer = np.asarray(lips.outer, np.float64)
+    centre, side = (outer.min(axis=0) + outer.max(axis=0)) / 2, 2.2 * float(np.ptp(outer[:, 0]))
+    view, size = square_view(centre, side, 0.0)
+    view[:, :2] *= size / PREVIEW_SIZE
+    panels = [view_cut(image, view, PREVIEW_SIZE) for image in (photo, worn)]
+    panels.append(render_lipstick(result["params"], 0, PREVIEW_SIZE, samples, seed))
+    return np.concatenate(panels, axis=1)
 
 
 def parse_crop(text: str | None) -> tuple[float, ...] | None:
