@@ -12,6 +12,7 @@ from vto_core.errors import VtoError
 
 from ..matching import apply
 from ..matching.photo_fit import OFFERED
+from . import preview
 from .preferences import preference_model
 from .properties import QUALITY_ITEMS, remember, settings_dict
 
@@ -133,6 +134,9 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
             self.report({"INFO"}, note)
         if stored is not None:
             remember(stored, job.renderer, result["values"], result["model"], result["seconds"])
+        if job.renderer == "lipstick" and stored is not None:
+            # the panel's Preview on Photo, after Match, on the photo Match read
+            preview.refresh(bpy.data.materials[job.material_name], job.prepared["reference"].whole)
         self.report({"INFO"}, f"matched {job.where} in {1000 * result['seconds']:.0f} ms: "
                               + ", ".join(apply.describe(result["spec"], result["values"])))
         return {"FINISHED"}
@@ -224,7 +228,28 @@ def another_thread_renders() -> bool:
     return False
 
 
-CLASSES = (VTO_OT_add_lipstick_material, VTO_OT_add_hair_compositor, VTO_OT_match_from_photo)
+class VTO_OT_preview_on_photo(bpy.types.Operator):
+    """Try the material's current lipstick values on the reference photo's lips (changes nothing in the file)"""
+
+    bl_idname = "vto.preview_on_photo"
+    bl_label = "Preview on Photo"
+
+    material: StringProperty(name="Material", default="", description="Material name (default: the active one)")
+
+    def execute(self, context):
+        material = bpy.data.materials.get(self.material) if self.material else getattr(context, "material", None)
+        if material is None:
+            self.report({"ERROR"}, f"no material '{self.material}' in this .blend" if self.material else
+                        "no material: pass material=NAME or select an object with a material")
+            return {"CANCELLED"}
+        note = preview.refresh(material)[1]
+        if note:
+            self.report({"ERROR"}, note)
+            return {"CANCELLED"}
+        return {"FINISHED"}
+
+
+CLASSES = (VTO_OT_add_lipstick_material, VTO_OT_add_hair_compositor, VTO_OT_match_from_photo, VTO_OT_preview_on_photo)
 
 
 def _material_menu(self, context):

@@ -11,9 +11,10 @@ import bpy
 from vto_core.specs import get_spec
 
 from ..matching import apply
-from . import thumbnail, warmup
+from . import preview, thumbnail, warmup
 from ..matching.photo_fit import FIT_QUALITY, FIT_SECONDS, NOT_OFFERED, OFFERED
-from .operators import VTO_OT_add_hair_compositor, VTO_OT_add_lipstick_material, VTO_OT_match_from_photo
+from .operators import (VTO_OT_add_hair_compositor, VTO_OT_add_lipstick_material, VTO_OT_match_from_photo,
+                        VTO_OT_preview_on_photo)
 from .preferences import preference_model
 
 THUMBNAIL_SCALE = 6.0  # the reference's thumbnail: 6 icon rows high
@@ -119,6 +120,20 @@ def draw_match(layout, context, props, renderer: str, target: str, material_name
         operator.material = material_name
     if props.last_estimate:
         draw_estimate(layout, props)
+    if renderer == "lipstick" and material_name:
+        draw_preview(layout, bpy.data.materials[material_name])
+
+
+def draw_preview(layout, material) -> None:
+    """Preview on Photo: the reference's lips beside the material's current values tried on them, made on request
+    and after Match."""
+    box = layout.box()
+    icon_id, note = preview.shown(material)
+    if note:
+        box.label(text=note, icon="ERROR")
+    elif icon_id:
+        box.template_icon(icon_value=icon_id, scale=THUMBNAIL_SCALE / 2)
+    box.operator(VTO_OT_preview_on_photo.bl_idname, icon="IMAGE_RGB").material = material.name
 
 
 class MaterialMatch:
@@ -240,4 +255,5 @@ def unregister() -> None:
         bpy.utils.unregister_class(cls)
     _registered.clear()
     thumbnail.unregister()
+    preview.unregister()
     warmup.unregister()

@@ -136,6 +136,14 @@ def fast_estimate(image: np.ndarray, lips: np.ndarray, box: tuple[int, int, int,
                              model)
 
 
+def run_operator(operator, **kwargs):
+    """(the operator's result, None) or ({'CANCELLED'}, the one error line it reported)."""
+    try:
+        return operator(**kwargs), None
+    except RuntimeError as exc:
+        return {"CANCELLED"}, str(exc).strip()
+
+
 def run_match(**kwargs):
     """The operator as a script calls it: ({'FINISHED'}, None) or ({'CANCELLED'}, the one error line).
 
@@ -481,6 +489,27 @@ def test_a_portrait_is_matched_at_its_lips_and_better_leaves_nothing_behind(mate
     better = inputs_of(material)
     assert better != fast and LIPSTICK.check_values(better) == pytest.approx(better)
     assert {kind: set(getattr(bpy.data, kind).keys()) for kind in before} == before  # the fit's scenes are gone
+
+
+def test_match_makes_the_preview_on_photo_and_a_photo_without_a_face_says_so(material, portrait, odd_files):
+    from blender_addon.ui import preview
+
+    target = bpy.data.materials[material]
+    assert run_match(material=material, image_path=portrait, find_lips=True) == ({"FINISHED"}, None)
+    assert preview.shown(target)[1] == ""  # made after Match, from the values Match wrote
+    values = preview.material_values(target)
+    assert values["red"] == pytest.approx(inputs_of(material)["red"], abs=1e-3)
+    picture = preview.picture(target)
+    left, right = picture[:, :preview.SIZE], picture[:, preview.SIZE:]
+    assert picture.shape == (preview.SIZE, 2 * preview.SIZE, 3) and np.abs(left - right).max() > 0.05
+    assert np.abs(left - right).mean() < 0.05  # the photo beside itself, only its lips changed
+    before = inputs_of(material)
+    target.vto_match.image_path = str(odd_files / "deep.png")  # a gradient: no face to try it on
+    result, error = run_operator(bpy.ops.vto.preview_on_photo, material=material)
+    assert result == {"CANCELLED"} and error.startswith("Error: no face found")
+    note = preview.shown(target)[1]
+    assert note.startswith("no face found") and "\n" not in note and preview.picture(target) is None
+    assert inputs_of(material) == before  # the preview changes nothing
 
 
 def test_the_thumbnail_outlines_the_lips_found():

@@ -1,0 +1,89 @@
+"""The panel's *Preview on Photo*: the reference photo's lips beside the material's current values tried on them
+(blender_addon.renderers.tryon). Made after Match and on request, never on a slider move; a preview image only,
+so nothing in the .blend changes and undo is untouched."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vto_core.errors import VtoError
+from vto_core.photo.framing import square_view, view_cut
+from vto_core.specs import get_spec
+
+from ..matching.apply import lipstick_nodes
+from ..renderers.tryon import find_lips, tryon_lipstick
+from .thumbnail import reference_pixels
+
+SIZE = 96  # px: each half of the preview (the photo, the try-on)
+SAMPLES = 8  # Cycles samples: a preview, not a dataset
+_made: dict[str, tuple[int, str, np.ndarray | None]] = {}  # material name -> (icon id, the note, the picture)
+_previews = None
+
+
+def material_values(material) -> dict[str, float]:
+    """Every lipstick parameter as the material's first "VTO Lipstick" node holds it (linked inputs at defaults)."""
+    nodes = lipstick_nodes(material)
+    if not nodes:
+        raise VtoError(f"material '{material.name}' does not use the 'VTO Lipstick' node group")
+    spec = get_spec("lipstick")
+    values = {}
+    for param in spec.params:
+        socket = nodes[0].inputs.get(param.socket)
+        if socket is not None and not socket.is_linked:
+            values[param.name] = float(socket.default_value)
+    return spec.full_values(values)
+
+
+def compose(photo: np.ndarray, worn: np.ndarray, lips) -> np.ndarray:
+    """(SIZE, 2 SIZE, 3): the photo around its lips | the same part of the try-on."""
+    outer = np.asarray(lips.outer, np.float64)
+    view, size = square_view((outer.min(axis=0) + outer.max(axis=0)) / 2, 2.2 * float(np.ptp(outer[:, 0])), 0.0)
+    view[:, :2] *= size / SIZE
+    return np.concatenate([view_cut(image, view, SIZE) for image in (photo, worn)], axis=1)
+
+
+def refresh(material, photo: np.ndarray | None = None) -> tuple[int, str]:
+    """Make the material's preview now, on `photo` (H, W, 3) or else the panel's reference: (its icon id, '') or (0,
+    the one line saying why there is none)."""
+    global _previews
+    import bpy.utils.previews
+
+    try:
+        photo = reference_pixels(material.vto_match) if photo is None else photo
+        lips = find_lips(photo)
+        picture = compose(photo, tryon_lipstick(photo, material_values(material), samples=SAMPLES), lips)
+    except Exception as exc:  # VtoError, or a render that failed: the panel says why, Match is not undone
+        text = str(exc) if isinstance(exc, VtoError) else f"{type(exc).__name__}: {(str(exc).splitlines() or [''])[0]}"
+        _made[material.name] = (0, text, None)
+        return shown(material)
+    if _previews is None:
+        _previews = bpy.utils.previews.new()
+    name = f"tryon:{material.name}"
+    preview = _previews.get(name) or _previews.new(name)
+    preview.image_size = picture.shape[1], picture.shape[0]
+    rgba = np.concatenate([picture, np.ones(picture.shape[:2] + (1,), np.float32)], axis=2)
+    preview.image_pixels_float.foreach_set(rgba[::-1].ravel())  # Blender's rows run bottom-up
+    _made[material.name] = (preview.icon_id, "", picture)  # headless, Blender gives previews icon id 0
+    return shown(material)
+
+
+def shown(material) -> tuple[int, str]:
+    """The material's last preview (icon id, note; the note is '' where the preview was made), or (0, '') before
+    the first."""
+    return _made.get(material.name, (0, "", None))[:2]
+
+
+def picture(material) -> np.ndarray | None:
+    """The material's last preview as pixels (SIZE, 2 SIZE, 3), or None."""
+    return _made.get(material.name, (0, "", None))[2]
+
+
+def unregister() -> None:
+    """Free the preview images."""
+    global _previews
+    if _previews is not None:
+        import bpy.utils.previews
+
+        bpy.utils.previews.remove(_previews)
+        _previews = None
+    _made.clear()
