@@ -19,22 +19,16 @@ import numpy as np
 
 from vto_core.errors import VtoError
 from vto_core.imageio import orientation_of, read_image, resize, upright
-from vto_core.photo.photo_light import light_of, neutral_photo
+from vto_core.photo.framing import (MIN_SIZE, cut, cut_read, face_roll, lips_frame, lips_view, square_view, view_box,
+                                    view_cut)
+from vto_core.photo.photo_light import light_of
 
-MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that an estimate is made from
-# The default lips scene frames the lips in a square whose width they span this share of (lips_mask over sources 0-7
-# at 64 px: 0.73-0.84). A lips mask is framed alike, so the encoder sees lips at the scale it was trained on: the
-# mask's own box, stretched to a square, gave 1.7-2.5x the colour error (benchmarks/results/mask_crop.md).
-LIPS_WIDTH_SHARE = 0.78
 MODELS = Path(__file__).parent.parent / "models"
 FACE_DETECTOR, FACE_LANDMARKS = "face_detector.onnx", "face_landmarks.onnx"  # blender_addon/models/face_locator.md
 PERSON_SEGMENTER = "person_segmenter.onnx"  # blender_addon/models/person_segmenter.md
 NO_FACE_LIGHT = "no face: the photo's light is kept"  # a hair photo with no face to read its light from
 NO_FACE_HAIR = "no face: the whole image is read as hair"
 HAIR_SQUARE_SHARE = 0.95  # the hair encoder reads the largest square of a hair mask that is this share hair
-# A face rolled more than this is framed turned upright (lips and hair) before the encoder reads it; below it the frame
-# stays on the pixel grid (no resampling). The 18 portraits' own rolls are -9 to 3 degrees, 14 of them within 5.
-ROLL_TOLERANCE = math.radians(5)
 ROLL_NOTE = math.radians(10)  # from this roll on, the panel says the face was read upright
 
 
@@ -145,22 +139,6 @@ def read_mask(path: str, shape: tuple[int, int]) -> np.ndarray:
     return mask
 
 
-def lips_frame(mask: np.ndarray) -> tuple[int, int, int, int]:
-    """(x, y, w, h) of the square that frames a lips mask (H, W) as the default lips scene frames the lips.
-
-    Centred on the mask's box, whose width is LIPS_WIDTH_SHARE of the side (at least the box's height and MIN_SIZE);
-    shrunk to the image's shorter side and moved inside the image where it would not fit.
-    """
-    rows, cols = np.nonzero(mask)
-    height, width = mask.shape
-    side = max(math.ceil((cols.max() + 1 - cols.min()) / LIPS_WIDTH_SHARE), rows.max() + 1 - rows.min(), MIN_SIZE)
-    side = min(side, height, width)
-    centre_y, centre_x = (rows.min() + rows.max() + 1) / 2, (cols.min() + cols.max() + 1) / 2
-    y = min(max(int(round(centre_y - side / 2)), 0), height - side)
-    x = min(max(int(round(centre_x - side / 2)), 0), width - side)
-    return x, y, side, side
-
-
 def read_image_setting(settings: dict) -> np.ndarray:
     """The reference the settings name (a file, or an image datablock), whole: (H, W, 3) in [0, 1]."""
     if settings.get("image_path"):
@@ -222,54 +200,6 @@ def locate_hair(image: np.ndarray, face, light=None):
     return cached_hair_locator(MODELS / PERSON_SEGMENTER).locate(image, face, light)
 
 
-def _cut(image: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
-    x, y, w, h = box
-    return np.ascontiguousarray(image[y:y + h, x:x + w])
-
-
-def _cut_read(whole: np.ndarray, box: tuple[int, int, int, int], light) -> np.ndarray:
-    """The part `box` (x, y, w, h) of `whole`, with the photo's `light` taken out (None: as it is)."""
-    return _cut(whole, box) if light is None else neutral_photo(_cut(whole, box), light)
-
-
-def turned_cut(image: np.ndarray, centre: np.ndarray, side: float, angle: float, light=None
-               ) -> tuple[np.ndarray, tuple[int, int, int, int]]:
-    """The square of `side` px centred on `centre` (x, y) and turned by `angle` rad (clockwise) cut from (H, W, C)
-    and turned upright: ((n, n, C) float32 at the photo's own scale, black outside the photo; the pixel box (x, y,
-    w, h) it covers). light: taken out of the colour (None: as it is)."""
-    from vto_core.photo.face_reader import apply_matrix, square_matrix, warp
-
-    size = max(MIN_SIZE, int(round(side)))
-    matrix = square_matrix(np.asarray(centre, np.float64), side, angle, size)
-    corners = apply_matrix(matrix, np.array([[0, 0], [size, 0], [0, size], [size, size]], np.float64))
-    height, width = image.shape[:2]
-    x0, y0 = (max(0, int(math.floor(v)) - 1) for v in corners.min(axis=0))
-    x1, y1 = min(width, int(math.ceil(corners[:, 0].max())) + 1), min(height, int(math.ceil(corners[:, 1].max())) + 1)
-    box = (x0, y0, max(0, x1 - x0), max(0, y1 - y0))
-    part = _cut(image, box) if light is None else _cut_read(image, box, light)
-    part = part[..., None] if part.ndim == 2 else part
-    matrix[:, 2] -= (x0, y0)
-    return warp(part, matrix, size).transpose(1, 2, 0), box
-
-
-def face_roll(landmarks) -> float:
-    """The roll (radians, clockwise) a face is framed with: its roll where it passes ROLL_TOLERANCE, else 0."""
-    from vto_core.photo.face_reader import roll_of
-
-    roll = 0.0 if landmarks is None else roll_of(np.asarray(landmarks))
-    return roll if abs(roll) > ROLL_TOLERANCE else 0.0
-
-
-def turned_lips_square(outer: np.ndarray, angle: float) -> tuple[np.ndarray, float]:
-    """lips_frame for lips turned by `angle` rad: the outer contour (K, 2) measured along the face's own axes ->
-    (centre (2,), side px) of the square that frames them as the default lips scene frames them."""
-    across, down = np.array([math.cos(angle), math.sin(angle)]), np.array([-math.sin(angle), math.cos(angle)])
-    along, below = np.asarray(outer, np.float64) @ across, np.asarray(outer, np.float64) @ down
-    side = max(math.ceil(np.ptp(along) / LIPS_WIDTH_SHARE), float(np.ptp(below)), MIN_SIZE)
-    centre = across * (along.min() + along.max()) / 2 + down * (below.min() + below.max()) / 2
-    return centre, float(side)
-
-
 def turn_note(angle: float) -> list[str]:
     """[a note that the face was read upright] where it is turned by ROLL_NOTE or more, else []."""
     return [f"face turned {math.degrees(angle):+.0f} degrees: read upright"] if abs(angle) >= ROLL_NOTE else []
@@ -313,7 +243,7 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     notes, lips = [], None
     if mask is None and find_lips:
         try:
-            lips = locate_lips(_cut(whole, box))
+            lips = locate_lips(cut(whole, box))
         except VtoError:
             if crop is None:
                 raise
@@ -328,17 +258,16 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     if neutral_light and mask is not None:
         light = light_of(whole, mask)
         notes.append(light.describe())
-    turn = face_roll(lips.landmarks) if crop is None and lips is not None and lips.how == "face" else 0.0
+    view, size, turn = lips_view(lips) if crop is None and lips is not None else (None, 0, 0.0)
     if turn:  # a tilted head: the lips framed along the face's own axes, turned upright
-        centre, side = turned_lips_square(lips.outer, turn)
-        image, box = turned_cut(whole, centre, side, turn, light)
-        notes += turn_note(turn)
-        lips_mask = (turned_cut(mask, centre, side, turn)[0][..., 0] > 0.5).astype(np.float32)
-        return Reference(image, (image, lips_mask), whole, box, lips, notes, light, turn=turn)
+        image = view_cut(whole, view, size, light)
+        lips_mask = (view_cut(mask, view, size)[..., 0] > 0.5).astype(np.float32)
+        return Reference(image, (image, lips_mask), whole, view_box(view, size, mask.shape), lips,
+                         notes + turn_note(turn), light, turn=turn)
     if crop is None and mask is not None:
         box = lips_frame(mask)
-    image = _cut_read(whole, box, light)
-    region = None if mask is None else (image, _cut(mask, box))
+    image = cut_read(whole, box, light)
+    region = None if mask is None else (image, cut(mask, box))
     return Reference(image, region, whole, box, lips, notes, light)
 
 
@@ -405,13 +334,13 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     turn = face_roll(face.landmarks) if finding and face is not None else 0.0
     if turn:  # a tilted head: the hair's region turned upright, so the square is read as an upright head shows it
         x, y, w, h = box
-        centre, side = np.array([x + w / 2, y + h / 2]), math.hypot(w, h)
-        rgb, box = turned_cut(whole, centre, side, turn, light)
-        mask = (turned_cut(mask, centre, side, turn)[0][..., 0] > 0.5).astype(np.float32)
+        view, size = square_view(np.array([x + w / 2, y + h / 2]), math.hypot(w, h), turn)
+        rgb, box = view_cut(whole, view, size, light), view_box(view, size, whole.shape[:2])
+        mask = (view_cut(mask, view, size)[..., 0] > 0.5).astype(np.float32)
         notes += turn_note(turn)
     else:
-        rgb = _cut_read(whole, box, light)
-        mask = np.ones(rgb.shape[:2], np.float32) if mask is None else _cut(mask, box)
+        rgb = cut_read(whole, box, light)
+        mask = np.ones(rgb.shape[:2], np.float32) if mask is None else cut(mask, box)
     if not mask.any():
         raise VtoError("the hair mask holds no hair inside the crop")
     square = hair_square(mask, HAIR_SQUARE_SHARE)
@@ -420,7 +349,7 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
                        "paint more of the hair, or crop a patch of it")
     x, y, side = square
     inner = box if turn else (box[0] + x, box[1] + y, side, side)
-    return Reference(_cut(rgb, (x, y, side, side)), (rgb, mask), whole, inner, notes=notes, light=light, hair=hair,
+    return Reference(cut(rgb, (x, y, side, side)), (rgb, mask), whole, inner, notes=notes, light=light, hair=hair,
                      turn=turn)
 
 

@@ -8,9 +8,10 @@ import os
 import numpy as np
 
 from vto_core.errors import VtoError
+from vto_core.photo.framing import face_roll, lips_frame, turned_lips_square
 
-from ..matching.reference import (absolute_path, crop_box, datablock_pixels, face_roll, hair_reference, lips_frame,
-                                  lips_reference, load_reference, read_mask, turned_lips_square)
+from ..matching.reference import (absolute_path, crop_box, datablock_pixels, hair_reference, lips_reference,
+                                  load_reference, read_mask)
 
 SIZE = 128  # pixels of the square thumbnail
 CROP_COLOUR = (1.0, 0.78, 0.1)  # the crop's outline: Blender's selection orange-yellow

@@ -1,0 +1,110 @@
+"""How a photo's lips are framed for what reads or draws them: the square the default lips scene frames lips in,
+on the pixel grid, or turned with a tilted face. numpy only, so this runs inside Blender's extension.
+
+Shapes: images (H, W, C); boxes (x, y, w, h) in pixels from the top-left corner; a view is a (2, 3) affine map from
+the pixel coordinates of an n x n frame to the photo's (pixel centres at +0.5).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .face_reader import apply_matrix, roll_of, square_matrix, warp
+from .photo_light import neutral_photo
+
+MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that an estimate is made from
+# The default lips scene frames the lips in a square whose width they span this share of (lips_mask over sources 0-7
+# at 64 px: 0.73-0.84). A lips mask is framed alike, so the encoder sees lips at the scale it was trained on: the
+# mask's own box, stretched to a square, gave 1.7-2.5x the colour error (benchmarks/results/mask_crop.md).
+LIPS_WIDTH_SHARE = 0.78
+# A face rolled more than this is framed turned upright (lips and hair) before the encoder reads it; below it the frame
+# stays on the pixel grid (no resampling). The 18 portraits' own rolls are -9 to 3 degrees, 14 of them within 5.
+ROLL_TOLERANCE = math.radians(5)
+
+
+def cut(image: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    """The part `box` of `image`, contiguous."""
+    x, y, w, h = box
+    return np.ascontiguousarray(image[y:y + h, x:x + w])
+
+
+def cut_read(whole: np.ndarray, box: tuple[int, int, int, int], light) -> np.ndarray:
+    """The part `box` of `whole` (H, W, 3), with the photo's `light` taken out (None: as it is)."""
+    return cut(whole, box) if light is None else neutral_photo(cut(whole, box), light)
+
+
+def lips_frame(mask: np.ndarray) -> tuple[int, int, int, int]:
+    """(x, y, w, h) of the square that frames a lips mask (H, W) as the default lips scene frames the lips.
+
+    Centred on the mask's box, whose width is LIPS_WIDTH_SHARE of the side (at least the box's height and MIN_SIZE);
+    shrunk to the image's shorter side and moved inside the image where it would not fit.
+    """
+    rows, cols = np.nonzero(mask)
+    height, width = mask.shape
+    side = max(math.ceil((cols.max() + 1 - cols.min()) / LIPS_WIDTH_SHARE), rows.max() + 1 - rows.min(), MIN_SIZE)
+    side = min(side, height, width)
+    centre_y, centre_x = (rows.min() + rows.max() + 1) / 2, (cols.min() + cols.max() + 1) / 2
+    y = min(max(int(round(centre_y - side / 2)), 0), height - side)
+    x = min(max(int(round(centre_x - side / 2)), 0), width - side)
+    return x, y, side, side
+
+
+def face_roll(landmarks) -> float:
+    """The roll (radians, clockwise) a face is framed with: its roll where it passes ROLL_TOLERANCE, else 0."""
+    roll = 0.0 if landmarks is None else roll_of(np.asarray(landmarks))
+    return roll if abs(roll) > ROLL_TOLERANCE else 0.0
+
+
+def turned_lips_square(outer: np.ndarray, angle: float) -> tuple[np.ndarray, float]:
+    """lips_frame for lips turned by `angle` rad: the outer contour (K, 2) measured along the face's own axes ->
+    (centre (2,), side px) of the square that frames them as the default lips scene frames them."""
+    across, down = np.array([math.cos(angle), math.sin(angle)]), np.array([-math.sin(angle), math.cos(angle)])
+    along, below = np.asarray(outer, np.float64) @ across, np.asarray(outer, np.float64) @ down
+    side = max(math.ceil(np.ptp(along) / LIPS_WIDTH_SHARE), float(np.ptp(below)), MIN_SIZE)
+    centre = across * (along.min() + along.max()) / 2 + down * (below.min() + below.max()) / 2
+    return centre, float(side)
+
+
+def square_view(centre: np.ndarray, side: float, angle: float) -> tuple[np.ndarray, int]:
+    """The view of the square of `side` px centred on `centre` (x, y), turned by `angle` rad clockwise, at the
+    photo's own scale: (view (2, 3), n)."""
+    size = max(MIN_SIZE, int(round(side)))
+    return square_matrix(np.asarray(centre, np.float64), side, angle, size), size
+
+
+def lips_view(lips) -> tuple[np.ndarray, int, float]:
+    """The frame Match reads found lips (vto_core.photo.lips_locator.LipsFound) through: (the view (2, 3) from an
+    n x n frame to the photo, n, the turn in rad). On the pixel grid (lips_frame of the mask, n its side) unless the
+    face is rolled past ROLL_TOLERANCE: then turned with it (turned_lips_square)."""
+    turn = face_roll(lips.landmarks) if lips.how == "face" else 0.0
+    if turn:
+        return *square_view(*turned_lips_square(lips.outer, turn), turn), turn
+    x, y, side, _ = lips_frame(lips.mask)
+    return np.array([[1.0, 0.0, x], [0.0, 1.0, y]]), side, 0.0
+
+
+def view_box(view: np.ndarray, size: int, shape: tuple[int, int]) -> tuple[int, int, int, int]:
+    """The pixel box (x, y, w, h) of an image of `shape` (H, W) that a view's size x size frame covers (clipped)."""
+    corners = apply_matrix(view, np.array([[0, 0], [size, 0], [0, size], [size, size]], np.float64))
+    height, width = shape
+    x0, y0 = (max(0, int(math.floor(v + 1e-9))) for v in corners.min(axis=0))
+    x1 = min(width, int(math.ceil(corners[:, 0].max() - 1e-9)))
+    y1 = min(height, int(math.ceil(corners[:, 1].max() - 1e-9)))
+    return x0, y0, max(0, x1 - x0), max(0, y1 - y0)
+
+
+def view_cut(image: np.ndarray, view: np.ndarray, size: int, light=None) -> np.ndarray:
+    """The size x size frame a view (2, 3) sees of (H, W, C) or (H, W): (size, size, C) float32, black outside the
+    image; exact pixels where the view is a whole-pixel shift at scale 1. light: taken out of the colour (None: as
+    it is)."""
+    image = image[..., None] if image.ndim == 2 else image
+    box = view_box(view, size, image.shape[:2])
+    grown = (max(0, box[0] - 1), max(0, box[1] - 1))  # a pixel more each way for the bilinear step
+    box = (grown[0], grown[1], min(image.shape[1], box[0] + box[2] + 1) - grown[0],
+           min(image.shape[0], box[1] + box[3] + 1) - grown[1])
+    part = cut(image, box) if light is None else cut_read(image, box, light)
+    shifted = view.copy()
+    shifted[:, 2] -= box[:2]
+    return warp(part, shifted, size).transpose(1, 2, 0)
