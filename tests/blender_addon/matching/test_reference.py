@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from vto_core.errors import VtoError
+from vto_core.imageio import write_image
 from vto_core.photo.framing import lips_frame
 
 
@@ -158,6 +159,40 @@ def test_hair_is_found_in_a_whole_portrait_and_a_crop_or_mask_overrides_it():
     painted[300:400, 300:400] = 1
     masked = hair_reference(photo, mask=painted)
     assert masked.hair is None and np.array_equal(masked.region[1], painted) and masked.box[2] >= 100
+
+
+def test_hair_is_found_beside_the_face_in_a_tight_crop():
+    """A beauty crop (her forehead's top out of frame): the hair beside her face is found, and Better and Best read
+    it."""
+    import skimage.data
+
+    from benchmarks.hand_masks import load_records, rasterise
+    from blender_addon.matching.reference import hair_reference
+
+    photo = skimage.data.astronaut().astype(np.float32) / 255
+    drawn = rasterise(load_records()["package:skimage.data.astronaut"], 512, 512)[75:300, 130:330]
+    reference = hair_reference(np.ascontiguousarray(photo[75:300, 130:330]))
+    found = reference.hair.mask > 0.5
+    assert (found & drawn).sum() / (found | drawn).sum() >= 0.5
+    x, y, w, h = reference.hair.box
+    assert np.array_equal(reference.region[1], reference.hair.mask[y:y + h, x:x + w])
+    assert reference.image.shape[0] >= 8 and reference.notes[0].startswith("hair found: ")
+
+
+def test_the_thumbnail_and_batch_read_a_tight_crop_as_match_does(tmp_path):
+    import skimage.data
+
+    from blender_addon.matching.batch import batch_reference
+    from blender_addon.matching.reference import hair_reference
+    from blender_addon.ui.thumbnail import HAIR_COLOUR, SIZE, compose
+
+    crop = np.ascontiguousarray(skimage.data.astronaut()[75:300, 130:330].astype(np.float32) / 255)
+    write_image(tmp_path / "tight.png", crop)
+    batch = batch_reference("hair", tmp_path / "tight.png")
+    assert batch.hair is not None and np.array_equal(batch.hair.mask, hair_reference(crop).hair.mask)
+    green = np.all(np.isclose(compose(crop, None, None, hair=batch.hair)[..., :3], HAIR_COLOUR), axis=-1)
+    cols = np.nonzero(green)[1]
+    assert cols.min() < 0.3 * SIZE and cols.max() > 0.7 * SIZE  # outlined on both sides of her face
 
 
 def test_the_last_photos_face_and_hair_are_kept_until_a_pixel_changes():
