@@ -70,7 +70,6 @@ def test_a_lips_mask_frames_the_reference_and_is_its_region_and_whole_image_take
 def test_a_photo_read_again_is_decoded_once_until_its_file_changes(tmp_path, monkeypatch):
     """Warm clicks on the same photo skip decoding it; each call gets its own copy, and its warnings."""
     from blender_addon.matching import reference as module
-    from vto_core.imageio import write_image
 
     path = tmp_path / "photo.exr"
     image = np.full((20, 20, 3), 0.25, np.float32)
@@ -291,7 +290,6 @@ def test_an_image_datablock_is_turned_as_its_files_orientation_says(tmp_path):
     import bpy
 
     from blender_addon.matching.reference import datablock_pixels
-    from vto_core.imageio import write_image
 
     shown = np.zeros((24, 40, 3), np.float32)
     shown[:8, :8] = (1.0, 0.0, 0.0)  # red at the top left as a viewer shows it
