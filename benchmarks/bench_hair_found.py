@@ -1,7 +1,7 @@
-"""Hair found in whole portraits: the hair locator against hand-drawn masks, and Fast, Better and Best from the whole
-portrait (no crop, no mask) against the colour of the hand-drawn hair patch.
+"""Hair found in whole portraits and in tight crops of them: the hair locator against hand-drawn masks, and Fast,
+Better and Best from the photo (no crop, no mask) against the colour of the hand-drawn hair.
 
-    python -m benchmarks.bench_hair_found [--qualities fast,better,best] [--only FILE ...]
+    python -m benchmarks.bench_hair_found [--qualities fast,better,best] [--only FILE ...] [--sets whole,crops]
 
 Photos: benchmarks/photos/photos.json, the 18 with hair; hand-drawn hair masks: benchmarks/photos/hair_masks.json
 (benchmarks/hand_masks.py). Per photo: the IoU of the hair found with the hand mask; the CIEDE2000 between the mean
@@ -9,7 +9,12 @@ colour of the hair found and of the hand patch (photos.json's first hair patch, 
 time to find the hair (the person model and the colour models; the face mesh apart); each quality through `vto
 match`'s own path on the whole photo, its estimate rendered on default hair regions 0-7 and its apparent colour
 against the hand patch's. Photos marked held_out are summarised apart. Also the refusals: pictures with no hair.
-Writes benchmarks/results/hair_found.md and hair_found.png (photo | hair found | Fast | Best, on default region 0).
+Tight crops: each portrait cut as beauty and makeup photos are framed, from the eyebrows to the chin (the face
+detector's box on the whole portrait, top to bottom) and 1.6 face widths (the box's width) across, its hand mask cut
+alike; the same figures, against the mean colour of the hand-drawn hair inside the crop. A crop shows hair where its
+hand mask covers at least 5 % of it (HAIR_SHOWN; the others show a man's short hair at the temples, 3-4 %).
+Writes benchmarks/results/hair_found.md and hair_found.png (photo | hair found | Fast | Best, on default region 0;
+then the same for the tight crop).
 """
 
 from __future__ import annotations
@@ -28,6 +33,8 @@ from benchmarks.common import RESULTS, table
 from benchmarks.hand_masks import load_records, rasterise
 
 QUALITIES = ("fast", "better", "best")
+TIGHT_WIDTH = 1.6  # face widths (the face detector's box) across a tight crop
+HAIR_SHOWN = 0.05  # of a tight crop that its hand-drawn hair must cover for the crop to show hair
 
 
 def finding(photo: np.ndarray) -> tuple[object, object, float, float]:
@@ -120,6 +127,91 @@ def run(records: list[dict], qualities: list[str], work: Path) -> tuple[list, li
     return found_rows, estimate_rows, figures, pictures
 
 
+def tight_crop(face, height: int, width: int) -> tuple[int, int, int, int]:
+    """(x0, y0, x1, y1) of the tight crop of a portrait (H, W) around its face (FaceRead): the face detector's box
+    from top to bottom (the eyebrows to the chin), TIGHT_WIDTH box widths across its centre, inside the photo."""
+    x, y, w, h = face.box
+    centre = x + w / 2
+    return (max(0, round(centre - TIGHT_WIDTH / 2 * w)), max(0, round(y)),
+            min(width, round(centre + TIGHT_WIDTH / 2 * w)), min(height, round(y + h)))
+
+
+def crop_row(record: dict, crop: np.ndarray, drawn: np.ndarray, qualities: list[str], work: Path, figures: dict
+             ) -> tuple[list, np.ndarray]:
+    """Finds the hair in a tight crop (H, W, 3) with its hand mask (H, W) and estimates it at each quality; appends
+    to `figures`; (the table's row, the picture's cells photo | found | Fast | Best)."""
+    from blender_addon.matching.photo_fit import apparent_colour, region_renderer
+    from vto_core.errors import VtoError
+    from vto_core.imageio import write_image
+
+    _, hair, _, hair_ms = finding(crop)
+    found = hair.mask > 0.5 if hasattr(hair, "mask") else None
+    iou = float((found & drawn).sum() / (found | drawn).sum()) if found is not None else 0.0
+    visible = crop[drawn].mean(0) if drawn.any() else crop.reshape(-1, 3).mean(0)
+    colour = delta_e(crop[found].mean(0), visible) if found is not None else float("inf")
+    for key, value in (("iou", iou), ("colour", colour), ("hair_ms", hair_ms), ("shown", drawn.mean()),
+                       ("held_out", bool(record.get("held_out")))):
+        figures[key].append(value)
+    row = [subject(record), f"{crop.shape[1]}x{crop.shape[0]}", f"{drawn.mean():.0%}",
+           f"{iou:.2f}" if found is not None else f"refused: {hair}", f"{colour:.1f}", f"{hair_ms:.0f}"]
+    path = work / "crop.png"
+    write_image(path, crop)
+    cells = {"photo": show(crop), "found": show(overlay(crop, found, drawn))}
+    for quality in qualities:
+        try:
+            result, ms = timed_match(MODELS / "hair_encoder.onnx", path, quality)
+        except VtoError as exc:
+            figures[quality].append(float("inf"))
+            figures[f"{quality}_ms"].append(float("nan"))
+            row += [f"refused: {exc}", "-"]
+            continue
+        figures[quality].append(delta_e(visible, apparent_colour("hair", result["params"])["mean"]))
+        figures[f"{quality}_ms"].append(ms)
+        row += [f"{figures[quality][-1]:.1f}", f"{ms:,.0f}"]
+        cells[quality] = show(region_renderer("hair", 0)(result["params"])[0])
+    blank = np.full_like(cells["photo"], 0.16)
+    print(row, file=sys.stderr)
+    return row, np.concatenate([cells.get(k, blank) for k in ("photo", "found", "fast", "best")], 1)
+
+
+def run_crops(records: list[dict], qualities: list[str], work: Path) -> tuple[list, dict, list]:
+    """Rows of the tight crops' table, their figures, their picture cells (one row per photo)."""
+    from blender_addon.matching.reference import read_face
+
+    drawn_masks = load_records()
+    figures = {key: [] for key in ("iou", "colour", "hair_ms", "shown", "held_out")}
+    figures |= {f"{quality}{what}": [] for quality in qualities for what in ("", "_ms")}
+    rows, pictures = [], []
+    for record in records:
+        photo = load_photo(record, PHOTOS.parent)
+        height, width = photo.shape[:2]
+        x0, y0, x1, y1 = tight_crop(read_face(photo), height, width)
+        drawn = rasterise(drawn_masks[record["file"]], height, width)[y0:y1, x0:x1]
+        row, cells = crop_row(record, np.ascontiguousarray(photo[y0:y1, x0:x1]), drawn, qualities, work, figures)
+        rows.append(row)
+        pictures.append(cells)
+    return rows, figures, pictures
+
+
+def crop_summary(figures: dict, qualities: list[str]) -> list[list]:
+    """Over the crops that show hair: all, the held-out and the tuning ones; IoU >= 0.5 and refusals counted,
+    medians of the colours (a refusal counts as the largest error)."""
+    held, shown = np.array(figures["held_out"]), np.array(figures["shown"]) >= HAIR_SHOWN
+    iou, colour = np.array(figures["iou"]), np.array(figures["colour"])
+    rows = []
+    for label, keep in (("all", shown), ("held-out", shown & held), ("tuning", shown & ~held)):
+        row = [f"{label} {keep.sum()} showing hair", f"{(iou[keep] >= 0.5).sum()}/{keep.sum()}",
+               f"{(~np.isfinite(colour[keep])).sum()}", f"{np.median(iou[keep]):.2f}",
+               f"{np.median(colour[keep]):.1f}"]
+        row += [f"{np.median(np.array(figures[q])[keep]):.1f}, "
+                f"{np.nanmedian(np.array(figures[q + '_ms'])[keep]):,.0f} ms" for q in qualities]
+        rows.append(row)
+    hairless = ~shown
+    refused = (~np.isfinite(colour[hairless])).sum()
+    rows.append([f"{hairless.sum()} showing little or no hair", "-", f"{refused}", "-", "-"] + ["-"] * len(qualities))
+    return rows
+
+
 def refusals(work: Path) -> list[list]:
     """What the hair path says of pictures with no hair to find: each should be one 'no hair found' line."""
     from blender_addon.matching.match import match
@@ -170,27 +262,14 @@ def summary(figures: dict, qualities: list[str]) -> list[list]:
     return rows
 
 
-def main(argv: list[str] | None = None) -> None:
-    """Run and write benchmarks/results/hair_found.md and .png."""
-    from vto_core.imageio import write_image
-
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--qualities", default="fast,better,best")
-    parser.add_argument("--only", nargs="*", default=None, help="photo files to run (default: all with hair)")
-    args = parser.parse_args(argv)
-    qualities = [q for q in args.qualities.split(",") if q]
-    records = [r for r in json.loads(PHOTOS.read_text()) if r.get("hair_patches")]
-    if args.only:
-        records = [r for r in records if any(o in r["file"] for o in args.only)]
-    with tempfile.TemporaryDirectory() as folder:
-        found_rows, estimate_rows, figures, pictures = run(records, qualities, Path(folder))
-        refused = refusals(Path(folder))
+def whole_sections(found_rows: list, estimate_rows: list, figures: dict, qualities: list[str]) -> list[str]:
+    """The markdown sections of the whole portraits."""
     per_mp = np.array(figures["hair_ms"]) / np.maximum(np.array(figures["mp"]), 1e-6)
-    text = "\n\n".join([
-        "# Hair found in whole portraits\n\n" + __doc__.split("\n\n", 2)[2].strip(),
-        "## Summary (medians; CIEDE2000 against the hand patch's colour, and in brackets the hand mask's)\n\n"
-        + table(["photos", "IoU >= 0.6", "IoU", "hair found"] + [f"{q.title()} from the whole portrait"
-                                                                for q in qualities], summary(figures, qualities)),
+    return [
+        "## Whole portraits: summary (medians; CIEDE2000 against the hand patch's colour, and in brackets the hand "
+        "mask's)\n\n" + table(["photos", "IoU >= 0.6", "IoU", "hair found"]
+                               + [f"{q.title()} from the whole portrait" for q in qualities],
+                               summary(figures, qualities)),
         f"Finding the hair (the face mesh apart): median {np.median(figures['hair_ms']):.0f} ms, largest "
         f"{max(figures['hair_ms']):.0f} ms on photos of {min(figures['mp']):.2f}-{max(figures['mp']):.2f} MP "
         f"(median {np.median(per_mp):.0f} ms per MP); the face reader: median {np.median(figures['face_ms']):.0f} ms.",
@@ -200,14 +279,57 @@ def main(argv: list[str] | None = None) -> None:
         f"{np.median(figures['drawn_vs_patch']):.1f} from the first patch "
         f"(largest {max(figures['drawn_vs_patch']):.1f})."
         " A hair is lit and shaded across the head, and one patch is one place on it.",
-        "## Hair found\n\n" + table(["photo", "hair", "size", "IoU with the hand mask", "found vs hand patch",
-                                     "found vs hand mask", "face ms", "hair ms"], found_rows),
+        "## Hair found in the whole portraits\n\n" + table(
+            ["photo", "hair", "size", "IoU with the hand mask", "found vs hand patch", "found vs hand mask", "face ms",
+             "hair ms"], found_rows),
         "## From the whole portrait (CIEDE2000 of the estimate's apparent colour against the hand patch's)\n\n"
         + table(["photo", "quality", "against the hand patch", "against the hand mask's mean", "ms"],
                 estimate_rows),
-        "## Refusals\n\n" + table(["picture", "what the hair path says"], refused),
+    ]
+
+
+def crop_sections(rows: list, figures: dict, qualities: list[str]) -> list[str]:
+    """The markdown sections of the tight crops."""
+    return [
+        f"## Tight crops: summary (crops whose hand mask covers at least {HAIR_SHOWN:.0%} of them; IoU with the "
+        "hand mask cut alike; medians of CIEDE2000 against the mean colour of the hand-drawn hair in the crop, a "
+        "refusal counted as the largest error)\n\n"
+        + table(["crops", "IoU >= 0.5", "refused", "IoU", "hair found"]
+                + [f"{q.title()} from the crop" for q in qualities], crop_summary(figures, qualities)),
+        f"Finding the hair in the crops: median {np.median(figures['hair_ms']):.0f} ms.",
+        "## Hair found in the tight crops (CIEDE2000 against the mean of the hand-drawn hair in the crop)\n\n"
+        + table(["photo", "crop", "hand-drawn hair", "IoU with the hand mask", "found vs hand mask", "hair ms"]
+                + [what for q in qualities for what in (f"{q.title()} vs hand mask", f"{q.title()} ms")], rows),
+    ]
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run and write benchmarks/results/hair_found.md and .png."""
+    from vto_core.imageio import write_image
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--qualities", default="fast,better,best")
+    parser.add_argument("--only", nargs="*", default=None, help="photo files to run (default: all with hair)")
+    parser.add_argument("--sets", default="whole,crops", help="whole portraits, tight crops or both")
+    args = parser.parse_args(argv)
+    qualities = [q for q in args.qualities.split(",") if q]
+    records = [r for r in json.loads(PHOTOS.read_text()) if r.get("hair_patches")]
+    if args.only:
+        records = [r for r in records if any(o in r["file"] for o in args.only)]
+    sections, pictures = [], []
+    with tempfile.TemporaryDirectory() as folder:
+        if "whole" in args.sets:
+            found_rows, estimate_rows, figures, pictures = run(records, qualities, Path(folder))
+            sections += whole_sections(found_rows, estimate_rows, figures, qualities)
+        if "crops" in args.sets:
+            crop_rows, crop_figures, crop_pictures = run_crops(records, qualities, Path(folder))
+            sections += crop_sections(crop_rows, crop_figures, qualities)
+            pictures = [np.concatenate(cells, 1) for cells in zip(pictures, crop_pictures)] or crop_pictures
+        sections.append("## Refusals\n\n" + table(["picture", "what the hair path says"], refusals(Path(folder))))
+    text = "\n\n".join([
+        "# Hair found in whole portraits and tight crops\n\n" + __doc__.split("\n\n", 2)[2].strip(), *sections,
         "Picture: `hair_found.png`, a row per photo: the photo | the hair found (green; the hand mask's outline red) "
-        "| Fast | Best, each estimate on default hair region 0.",
+        "| Fast | Best, each estimate on default hair region 0; then the same for its tight crop.",
     ])
     (RESULTS / "hair_found.md").write_text(text + "\n")
     if pictures:

@@ -1,6 +1,8 @@
-"""Find the hair in a portrait: the person (MediaPipe's selfie segmentation on onnxruntime) less the face, grown from a
-seed above the forehead through the pixels whose colour is the seed's rather than the skin's, the clothes' or the
-background's (a Gaussian each in CIELAB, fitted on this photo).
+"""Find the hair in a portrait: the person (MediaPipe's selfie segmentation on onnxruntime) less the face, grown from
+seeds wherever hair can start (above the forehead, beside the temples and cheeks, a fringe over the forehead) through
+the pixels whose colour is the seeds' rather than the skin's, the clothes' or the background's (a Gaussian each in
+CIELAB, fitted on this photo). A tight crop (eyebrows to chin) has no forehead in frame: its hair starts beside the
+face.
 
 The model is blender_addon/models/person_segmenter.onnx (model card: person_segmenter.md, made by
 scripts/convert_selfie_model.py). The face comes from vto_core.photo.face_reader. numpy only at import (onnxruntime when
@@ -21,7 +23,8 @@ import numpy as np
 from ..colour import srgb_to_lab
 from ..errors import VtoError
 from ..inference import cpu_session, file_key
-from .face_reader import FaceRead, as_rgb, polygon_mask, reduce, sample_bilinear, square_matrix, tight_box, warp
+from .face_reader import (LEFT_EYE_CORNER, LEFT_MOUTH_CORNER, RIGHT_EYE_CORNER, RIGHT_MOUTH_CORNER, FaceRead, as_rgb,
+                          polygon_mask, reduce, sample_bilinear, square_matrix, tight_box, warp)
 from .photo_light import PhotoLight, neutral_photo
 
 SEGMENTER_SIZE = 256  # selfie segmentation: (1, 3, 256, 256) display RGB in [0, 1] -> (1, 1, 256, 256) person
@@ -29,6 +32,7 @@ SEGMENTER_SIZE = 256  # selfie segmentation: (1, 3, 256, 256) display RGB in [0,
 FACE_OVAL = [10, 338, 297, 332, 284, 251, 389, 356, 454, 323, 361, 288, 397, 365, 379, 378, 400, 377, 152, 148, 176,
              149, 150, 136, 172, 58, 132, 93, 234, 127, 162, 21, 54, 103, 67, 109]
 FOREHEAD, CHIN, RIGHT_CHEEK, LEFT_CHEEK = 10, 152, 234, 454
+BROWS = [70, 63, 105, 66, 107, 336, 296, 334, 293, 300]  # the eyebrows' upper edges
 # The head's region, in face heights (forehead landmark to chin) up and down and face widths to each side of the
 # face's centre: long hair falls past the chin to the shoulders.
 REGION_UP, REGION_DOWN, REGION_SIDE = 1.0, 1.4, 1.6
@@ -38,12 +42,18 @@ WORK_FACE_HEIGHT = 56  # px per face height where the hair is found
 # heights, within this many face widths of the face's centre line.
 SEED_UP = (0.2, 0.38)
 SEED_HALF_WIDTH = 0.3
+# The seeds beside the face: a strip this many face widths outside the face oval on each side, from the eyes' height
+# down to the mouth's (the temples and the cheeks; a strip that is mostly ear is the skin's colour, and refused).
+SIDE_STRIP = (0.03, 0.2)
+# A pixel of the fringe's seed (the face oval above the eyebrows) looks like the skin within this squared Mahalanobis
+# distance of the skin's model (99 % of a Gaussian in 3 dimensions), and is left out of the seed.
+SKIN_LIKE = 11.3
 # The clothes' samples, face heights below the chin, within SEED_HALF_WIDTH of the centre line: the collar, the chest.
 CLOTHES_BELOW = ((0.3, 0.6), (0.8, 2.0))
 NECK_HALF_WIDTH = 0.4  # face widths: below the chin, hair is looked for only this far or further from the centre line
 PERSON, BACKGROUND = 0.5, 0.1  # segmenter probabilities: the person at and above; the background below
 HAIR_CANDIDATE = 0.25  # hair may reach where the person probability is this low (fine strands against the backdrop)
-MIN_SEED_SHARE = 0.25  # of the seed band that must be the person, in frame
+MIN_SEED_SHARE = 0.25  # of a seed's area that must be the person, in frame (and unlike the skin, over the forehead)
 MIN_HAIR_SKIN_DISTANCE = 10.0  # CIELAB distance of the seed's median from the skin's: nearer is a bald head
 # Hair colours: the hair patches of the 12 tuning portraits have chroma 2-29, the 22 hair presets (fashion colours
 # included: teal, lilac, violet) 0-25; a desert seen from orbit has 38-44, an orange suit 70, a red hat 60+. A seed or
@@ -89,10 +99,14 @@ class Gaussian:
         covariance = np.cov(lab, rowvar=False) + floor
         return cls(lab.mean(axis=0), np.linalg.inv(covariance), float(np.linalg.slogdet(covariance)[1]))
 
+    def distance(self, lab: np.ndarray) -> np.ndarray:
+        """(..., 3) -> (...) squared Mahalanobis distance from the mean."""
+        delta = lab - self.mean
+        return ((delta @ self.precision) * delta).sum(axis=-1)
+
     def log_likelihood(self, lab: np.ndarray) -> np.ndarray:
         """(..., 3) -> (...) log density up to a shared constant."""
-        delta = lab - self.mean
-        return -0.5 * (((delta @ self.precision) * delta).sum(axis=-1) + self.log_det)
+        return -0.5 * (self.distance(lab) + self.log_det)
 
 
 class HairLocator:
@@ -109,8 +123,9 @@ class HairLocator:
         return np.nan_to_num(probability[0, 0])
 
     def locate(self, image: np.ndarray, face: FaceRead, light: PhotoLight | None = None) -> HairFound:
-        """(H, W, 3) display sRGB and its largest face (FaceReader.read) -> the hair; VtoError 'no hair found ...' for
-        a bald head, a hat, hair out of frame, or too little hair to read. light: the photo's light
+        """(H, W, 3) display sRGB and its largest face (FaceReader.read) -> the hair, grown from every seed that shows
+        it (HeadFrame.seeds: above the forehead, over it, beside the face); VtoError 'no hair found ...' for a bald
+        head, a hat, hair out of frame on every side, or too little hair to read. light: the photo's light
         (vto_core.photo.photo_light), taken out of the head's colours before they are modelled and judged, so a warm or
         cool light does not make hair look like skin or a hat (the limits here are a neutral studio's)."""
         image = as_rgb(image)
@@ -122,18 +137,11 @@ class HairLocator:
         person = frame.sample_person(self.person(image, frame.segmenter_matrix()))
         lab = srgb_to_lab(rgb).astype(np.float64)
         oval = frame.polygon(face.landmarks[FACE_OVAL])
-        seed = frame.seed() & (person >= PERSON) & ~oval
-        if seed.sum() < MIN_SEED_SHARE * frame.seed_area():
-            raise VtoError("no hair found: the top of the head is out of frame or not part of the person")
-        models = colour_models(lab, oval, person, frame.clothes())
-        hair_seed = lab[seed]
-        median = np.median(hair_seed, axis=0)
-        if "skin" in models and np.linalg.norm(median - models["skin"].mean) < MIN_HAIR_SKIN_DISTANCE:
-            raise VtoError("no hair found: the head above the face is the colour of the skin (bald?)")
-        if not is_hair_colour(median):
-            raise VtoError("no hair found: what covers the head is not a hair colour (a hat?)")
-        candidates = (person >= HAIR_CANDIDATE) & ~oval & ~frame.under_chin()
-        hair = seed
+        models = colour_models(lab, oval & ~frame.above_brows(), person, frame.clothes())
+        seeds = frame.seeds(oval, person >= PERSON, models["skin"].distance(lab) > SKIN_LIKE if "skin" in models
+                            else np.ones_like(oval))
+        hair, seed, fringe = hair_seeds(lab, seeds, models)
+        candidates = (person >= HAIR_CANDIDATE) & (~oval | fringe) & ~frame.under_chin()
         for _ in range(GROW_ROUNDS):
             parts = split_by_lightness(lab[hair])
             if not parts:
@@ -145,6 +153,52 @@ class HairLocator:
         if mask.sum() < MIN_HAIR_SHARE * frame.oval_area(face.landmarks[FACE_OVAL]):
             raise VtoError("no hair found: too little hair beside the face to read (bald, or a hat?)")
         return HairFound(mask, tight_box(mask), face.faces, face.note)
+
+
+@dataclass
+class Seed:
+    """Where hair may start: the work pixels (rows, cols) bool that can show it, and the seed's area in work pixels
+    had the photo no edges."""
+
+    name: str
+    where: np.ndarray
+    area: float
+
+
+OUT_OF_FRAME = ("no hair found: the top of the head is out of frame or not part of the person, and no hair shows "
+                "beside the face")
+
+
+def seed_problem(lab: np.ndarray, area: float, models: dict[str, Gaussian]) -> str:
+    """'' when a seed's pixels (N, 3) CIELAB show hair, else why not ('no hair found: ...')."""
+    if len(lab) < max(MIN_SEED_SHARE * area, 8):
+        return OUT_OF_FRAME
+    median = np.median(lab, axis=0)
+    if "skin" in models and np.linalg.norm(median - models["skin"].mean) < MIN_HAIR_SKIN_DISTANCE:
+        return "no hair found: the head around the face is the colour of the skin (bald?)"
+    if not is_hair_colour(median):
+        return "no hair found: what covers the head is not a hair colour (a hat?)"
+    return ""
+
+
+def hair_seeds(lab: np.ndarray, seeds: list[Seed], models: dict[str, Gaussian]
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(where the hair's colour is first fitted, where it grows from, the fringe's seed or none) (rows, cols) bool
+    each, from the seeds that show hair (seed_problem). Where the band above the forehead shows it, the colour is
+    fitted on it alone, and a seed elsewhere must be that hair's colour rather than another's (a headset, a collar);
+    else on all the seeds that show hair. VtoError (the first seed's problem that is not the frame's, else the
+    frame's) where none shows hair."""
+    problems = {seed.name: seed_problem(lab[seed.where], seed.area, models) for seed in seeds}
+    shown = [seed for seed in seeds if not problems[seed.name]]
+    if not shown:
+        raise VtoError(next((p for p in problems.values() if p != OUT_OF_FRAME), OUT_OF_FRAME))
+    if shown[0].name == "top":
+        parts = split_by_lightness(lab[shown[0].where])
+        margin = hair_margin(lab, parts, models)
+        shown = shown[:1] + [seed for seed in shown[1:] if np.median(margin[seed.where]) > 0]
+    fringe = next((seed.where for seed in shown if seed.name == "fringe"), np.zeros_like(seeds[0].where))
+    every = np.logical_or.reduce([seed.where for seed in shown])
+    return (shown[0].where if shown[0].name == "top" else every), every, fringe
 
 
 class HeadFrame:
@@ -175,6 +229,8 @@ class HeadFrame:
         offset = np.stack([self.xs, self.ys], -1) - self.centre
         self.along_up = offset @ self.up / self.face_height  # face heights above the face's centre
         self.along_right = offset @ self.right / self.face_width  # face widths right of the centre line
+        self.marks_up = (landmarks - self.centre) @ self.up / self.face_height  # (468,) the landmarks likewise
+        self.marks_right = (landmarks - self.centre) @ self.right / self.face_width
 
     def sample(self, image: np.ndarray) -> np.ndarray:
         """(H, W, 3) -> (rows, cols, 3) float32 the region on the work grid (block means, then bilinear)."""
@@ -218,8 +274,62 @@ class HeadFrame:
 
     def seed_area(self) -> float:
         """The seed band's area in work pixels, had the photo no edges."""
-        return (SEED_UP[1] - SEED_UP[0]) * 2 * SEED_HALF_WIDTH * self.face_width / self.face_height \
-            * WORK_FACE_HEIGHT ** 2
+        return (SEED_UP[1] - SEED_UP[0]) * 2 * SEED_HALF_WIDTH * self.work_area()
+
+    def seeds(self, oval: np.ndarray, person: np.ndarray, unlike_skin: np.ndarray) -> list[Seed]:
+        """Where hair may start, each among the person's pixels: the band above the forehead and the strips beside the
+        face, left and right, each less the face oval (`seed`, `beside`); the oval above the eyebrows where it is
+        `unlike_skin` (rows, cols) bool (a fringe)."""
+        fringe = self.above_brows() & oval & person & unlike_skin
+        top = Seed("top", self.seed() & person & ~oval, self.seed_area())
+        sides = [Seed(name, where & person & ~oval, self.beside_area())
+                 for name, where in zip(("left", "right"), self.beside())]
+        return [top, Seed("fringe", fringe, self.fringe_area())] + sides
+
+    def above_brows(self) -> np.ndarray:
+        """(rows, cols) bool: above the eyebrows' top."""
+        return self.along_up > self.marks_up[BROWS].max()
+
+    def fringe_area(self) -> float:
+        """The face oval's area above the eyebrows, in work pixels."""
+        heights = np.linspace(self.marks_up[BROWS].max(), self.marks_up[FOREHEAD], 17)
+        left, right = self.oval_edges(heights)
+        widths = np.maximum(right - left, 0)
+        return max(0.0, float(((widths[1:] + widths[:-1]) / 2 * np.diff(heights)).sum())) * self.work_area()
+
+    def beside(self) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, cols) bool each: SIDE_STRIP outside the face oval on its left and its right, from the eyes'
+        height down to the mouth's."""
+        eyes, mouth = self.eyes_and_mouth()
+        rows = (self.along_up <= eyes) & (self.along_up >= mouth)
+        left, right = self.oval_edges(self.along_up)
+        near, far = SIDE_STRIP
+        return (rows & (self.along_right <= left - near) & (self.along_right >= left - far),
+                rows & (self.along_right >= right + near) & (self.along_right <= right + far))
+
+    def beside_area(self) -> float:
+        """The area of one strip beside the face, in work pixels."""
+        eyes, mouth = self.eyes_and_mouth()
+        return max(eyes - mouth, 0.0) * (SIDE_STRIP[1] - SIDE_STRIP[0]) * self.work_area()
+
+    def eyes_and_mouth(self) -> tuple[float, float]:
+        """The heights (face heights above the centre) of the eyes' outer corners and of the mouth's corners."""
+        eyes = float(self.marks_up[[RIGHT_EYE_CORNER, LEFT_EYE_CORNER]].mean())
+        return eyes, float(self.marks_up[[RIGHT_MOUTH_CORNER, LEFT_MOUTH_CORNER]].mean())
+
+    def oval_edges(self, heights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(left, right) where the face oval's two sides lie (face widths right of the centre line) at `heights`
+        (face heights above the centre): each side's landmarks from the forehead to the chin, interpolated."""
+        chin = FACE_OVAL.index(CHIN)
+        edges = []
+        for side in (FACE_OVAL[:chin + 1], FACE_OVAL[chin:] + [FOREHEAD]):
+            order = np.argsort(self.marks_up[side])
+            edges.append(np.interp(heights, self.marks_up[side][order], self.marks_right[side][order]))
+        return tuple(sorted(edges, key=lambda edge: float(np.mean(edge))))
+
+    def work_area(self) -> float:
+        """Work pixels in an area of one face height by one face width."""
+        return self.face_width / self.face_height * WORK_FACE_HEIGHT ** 2
 
     def clothes(self) -> list[np.ndarray]:
         """(rows, cols) bool each: below the chin, in the middle: the collar and the chest."""
@@ -279,13 +389,14 @@ def patch_problem(image: np.ndarray) -> str:
 
 def colour_models(lab: np.ndarray, oval: np.ndarray, person: np.ndarray, clothes: list[np.ndarray]
                   ) -> dict[str, Gaussian]:
-    """The photo's own colour models, each from the pixels it surely covers: the skin (the face oval, its outliers
-    trimmed), the background (not the person), the clothes (the collar and the chest)."""
+    """The photo's own colour models, each from the pixels it surely covers: the skin (`oval`, the face oval below the
+    eyebrows so that a fringe is not taken for it, its outliers trimmed), the background (not the person), the
+    clothes (the collar and the chest)."""
     models = {}
     skin = lab[oval]
     if len(skin) >= 8:
         first = Gaussian.fit(skin)
-        distance = -2 * first.log_likelihood(skin) - first.log_det
+        distance = first.distance(skin)
         models["skin"] = Gaussian.fit(skin[distance < np.quantile(distance, 0.8)]) or first
     samples = [("background", person < BACKGROUND)] + [(f"clothes {i}", where & (person >= PERSON))
                                                        for i, where in enumerate(clothes)]

@@ -362,7 +362,19 @@ def test_hair_of_the_larger_of_two_faces_is_found_and_said(portrait, tmp_path, c
     assert x + w <= 532 and "2 faces found: the largest is used" in captured.err
 
 
-@pytest.mark.parametrize("picture", ["bald", "hat", "out of frame", "no person", "noise", "blank"])
+def test_hair_is_found_in_a_tight_crop(portrait, tmp_path, capsys):
+    """A beauty crop, the top of her head out of frame: the hair beside her face is found and read."""
+    write_image(tmp_path / "tight.png", read_image(portrait)[0][75:300, 130:330])
+    assert cli.run(["match", "--model", HAIR_MODEL, "--image", str(tmp_path / "tight.png"), "--out-params",
+                    str(tmp_path / "p.json")]) == 0
+    captured = capsys.readouterr()
+    x, y, w, h = json.loads(captured.out.strip().splitlines()[-1])["hair"]["box"]
+    assert x < 40 and x + w > 160 and y < 20 and "vto match: hair found: " in captured.err  # both sides, the fringe
+    assert parse_params(str(tmp_path / "p.json"), "hair")
+
+
+@pytest.mark.parametrize("picture", ["bald", "hat", "out of frame", "out of frame on every side", "no person",
+                                     "noise", "blank"])
 def test_a_picture_without_hair_is_one_line_exit_2_and_nothing_written(picture, portrait, tmp_path, capsys):
     from benchmarks.hand_masks import load_records, rasterise
 
@@ -375,6 +387,8 @@ def test_a_picture_without_hair_is_one_line_exit_2_and_nothing_written(picture, 
         image[hair] = (0.75, 0.1, 0.1)
     elif picture == "out of frame":
         image = whole[110:]
+    elif picture == "out of frame on every side":  # her face from the eyes down, cut inside her cheeks
+        image = whole[100:300, 185:265]
     elif picture == "no person":  # an orange landscape, as the desert seen from the ISS
         image = np.linspace(0.3, 0.9, 300)[:, None, None] * np.array([1.0, 0.55, 0.25]) * np.ones((300, 400, 1))
     elif picture == "noise":

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from vto_core.errors import VtoError
+from vto_core.imageio import write_image
 from vto_core.photo.framing import lips_frame
 
 
@@ -69,7 +70,6 @@ def test_a_lips_mask_frames_the_reference_and_is_its_region_and_whole_image_take
 def test_a_photo_read_again_is_decoded_once_until_its_file_changes(tmp_path, monkeypatch):
     """Warm clicks on the same photo skip decoding it; each call gets its own copy, and its warnings."""
     from blender_addon.matching import reference as module
-    from vto_core.imageio import write_image
 
     path = tmp_path / "photo.exr"
     image = np.full((20, 20, 3), 0.25, np.float32)
@@ -158,6 +158,40 @@ def test_hair_is_found_in_a_whole_portrait_and_a_crop_or_mask_overrides_it():
     painted[300:400, 300:400] = 1
     masked = hair_reference(photo, mask=painted)
     assert masked.hair is None and np.array_equal(masked.region[1], painted) and masked.box[2] >= 100
+
+
+def test_hair_is_found_beside_the_face_in_a_tight_crop():
+    """A beauty crop (her forehead's top out of frame): the hair beside her face is found, and Better and Best read
+    it."""
+    import skimage.data
+
+    from benchmarks.hand_masks import load_records, rasterise
+    from blender_addon.matching.reference import hair_reference
+
+    photo = skimage.data.astronaut().astype(np.float32) / 255
+    drawn = rasterise(load_records()["package:skimage.data.astronaut"], 512, 512)[75:300, 130:330]
+    reference = hair_reference(np.ascontiguousarray(photo[75:300, 130:330]))
+    found = reference.hair.mask > 0.5
+    assert (found & drawn).sum() / (found | drawn).sum() >= 0.5
+    x, y, w, h = reference.hair.box
+    assert np.array_equal(reference.region[1], reference.hair.mask[y:y + h, x:x + w])
+    assert reference.image.shape[0] >= 8 and reference.notes[0].startswith("hair found: ")
+
+
+def test_the_thumbnail_and_batch_read_a_tight_crop_as_match_does(tmp_path):
+    import skimage.data
+
+    from blender_addon.matching.batch import batch_reference
+    from blender_addon.matching.reference import hair_reference
+    from blender_addon.ui.thumbnail import HAIR_COLOUR, SIZE, compose
+
+    crop = np.ascontiguousarray(skimage.data.astronaut()[75:300, 130:330].astype(np.float32) / 255)
+    write_image(tmp_path / "tight.png", crop)
+    batch = batch_reference("hair", tmp_path / "tight.png")
+    assert batch.hair is not None and np.array_equal(batch.hair.mask, hair_reference(crop).hair.mask)
+    green = np.all(np.isclose(compose(crop, None, None, hair=batch.hair)[..., :3], HAIR_COLOUR), axis=-1)
+    cols = np.nonzero(green)[1]
+    assert cols.min() < 0.3 * SIZE and cols.max() > 0.7 * SIZE  # outlined on both sides of her face
 
 
 def test_the_last_photos_face_and_hair_are_kept_until_a_pixel_changes():
@@ -256,7 +290,6 @@ def test_an_image_datablock_is_turned_as_its_files_orientation_says(tmp_path):
     import bpy
 
     from blender_addon.matching.reference import datablock_pixels
-    from vto_core.imageio import write_image
 
     shown = np.zeros((24, 40, 3), np.float32)
     shown[:8, :8] = (1.0, 0.0, 0.0)  # red at the top left as a viewer shows it

@@ -1,6 +1,7 @@
 """The hair locator: the person model (blender_addon/models/person_segmenter.onnx) and per-photo colour models, grown
-from a seed above the forehead; and the test of a picture with no face."""
+from seeds above the forehead, over it and beside the face; and the test of a picture with no face."""
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +39,9 @@ def iou(a: np.ndarray, b: np.ndarray) -> float:
     return float((a & b).sum() / (a | b).sum())
 
 
+TIGHT = (slice(75, 300), slice(130, 330))  # the astronaut framed as a beauty photo: her forehead's top out of frame
+
+
 def test_the_astronauts_hair_is_found(reader, locator, astronaut, astronaut_hair):
     found = locator.locate(astronaut, reader.read(astronaut))
     hair = found.mask > 0.5
@@ -56,15 +60,30 @@ def test_the_person_model_separates_person_from_backdrop(locator, astronaut):
     assert person[100:140, 100:140].mean() > 0.9 and person[:30, :20].mean() < 0.1
 
 
-@pytest.mark.parametrize("case", ["bald", "hat", "out of frame"])
+def test_a_tight_crop_is_found_beside_the_face(reader, locator, astronaut, astronaut_hair):
+    crop = np.ascontiguousarray(astronaut[TIGHT])
+    face = reader.read(crop)
+    frame = hl.HeadFrame(face.landmarks, *crop.shape[:2])
+    assert not frame.seed().any()  # the band above her forehead is out of frame
+    hair = locator.locate(crop, face).mask > 0.5
+    assert iou(hair, astronaut_hair[TIGHT]) >= 0.5
+    assert hair[:, :40].any() and hair[:, 150:].any()  # beside her face on both sides
+    assert not hair[40:95, 65:125].any()  # her face below the eyes
+
+
+@pytest.mark.parametrize("case", ["bald", "hat", "out of frame", "out of frame on every side", "bald crop",
+                                  "hat crop"])
 def test_a_head_without_hair_is_refused_in_one_line(reader, locator, astronaut, astronaut_hair, case):
     image = astronaut.copy()
-    if case == "bald":
+    if case.startswith("bald"):
         image[astronaut_hair] = astronaut[130:150, 200:250].reshape(-1, 3).mean(0)
-    elif case == "hat":
+    elif case.startswith("hat"):
         image[astronaut_hair] = (0.75, 0.1, 0.1)
-    else:
+    elif case == "out of frame":
         image = astronaut[110:]  # cut at the eyebrows
+    else:
+        image = astronaut[100:300, 185:265]  # her face from the eyes down, cut inside her cheeks: no hair on any side
+    image = np.ascontiguousarray(image[TIGHT] if case.endswith("crop") else image)
     face = reader.read(image)
     assert face is not None
     with pytest.raises(VtoError, match=r"^no hair found: [^\n]+$"):
@@ -103,6 +122,48 @@ def test_extremes_give_finite_results_or_one_line(reader, locator, astronaut):
             assert np.isfinite(found.mask).all() and found.mask.any()
     for image in (np.zeros((40, 40, 3)), np.ones((40, 40, 3)), np.full((40, 40, 3), np.inf)):
         assert hl.patch_problem(image) == "no hair found: the image is blank"
+    for y, x, side in ((120, 200, 16), (0, 0, 8)):  # tiny crops of her cheek and of the flag, her face read whole
+        shifted = dataclasses.replace(face, landmarks=face.landmarks - np.array([x, y], np.float32))
+        with pytest.raises(VtoError, match=r"^no hair found: [^\n]+$"):
+            locator.locate(astronaut[y:y + side, x:x + side], shifted)
+
+
+def test_the_seeds_lie_where_hair_starts(reader, astronaut):
+    face = reader.read(astronaut)
+    frame = hl.HeadFrame(face.landmarks, 512, 512)
+    oval = frame.polygon(face.landmarks[hl.FACE_OVAL])
+    left, right = frame.beside()
+    for strip in (left, right):  # whole inside the photo: as large as the strip's own area, outside the oval
+        assert strip.sum() == pytest.approx(frame.beside_area(), rel=0.15) and not (strip & oval).any()
+    assert frame.along_right[left].max() < -0.4 < 0.4 < frame.along_right[right].min()  # the jaw narrows
+    eyes, mouth = frame.eyes_and_mouth()
+    assert 0.1 < eyes < 0.3 and -0.3 < mouth < -0.1 and 0.25 < eyes - mouth < 0.5  # face heights above the centre
+    fringe = frame.above_brows() & oval
+    assert fringe.sum() == pytest.approx(frame.fringe_area(), rel=0.15)
+    assert frame.along_up[fringe].min() > eyes
+    edges = frame.oval_edges(np.array([0.0]))
+    assert -0.6 < edges[0][0] < -0.4 and 0.4 < edges[1][0] < 0.6  # the cheeks: half a face width out
+
+
+def test_every_seed_that_shows_hair_grows_and_one_of_another_colour_does_not():
+    rng = np.random.default_rng(0)
+    lab = np.empty((40, 40, 3))
+    lab[:20] = rng.normal((30, 8, 15), 2, (20, 40, 3))  # brown hair above and on the left
+    lab[20:, 20:] = rng.normal((12, 0, -20), 2, (20, 20, 3))  # a navy headset on the right
+    lab[20:, :20] = rng.normal((30, 8, 15), 2, (20, 20, 3))
+    rows = np.arange(40)[:, None] + np.zeros((1, 40), int)
+    cols = rows.T
+    top, left, right = (rows < 10) & (cols < 20), (rows >= 20) & (cols < 10), (rows >= 20) & (cols >= 30)
+    models = {"skin": hl.Gaussian.fit(rng.normal((65, 15, 20), 3, (200, 3))),
+              "background": hl.Gaussian.fit(rng.normal((10, 0, -22), 3, (200, 3)))}
+    seeds = [hl.Seed("top", top, 200), hl.Seed("fringe", np.zeros_like(top), 100), hl.Seed("left", left, 200),
+             hl.Seed("right", right, 200)]
+    fit, grow_from, fringe = hl.hair_seeds(lab, seeds, models)
+    assert np.array_equal(fit, top) and np.array_equal(grow_from, top | left) and not fringe.any()
+    fit, grow_from, _ = hl.hair_seeds(lab, [hl.Seed("top", top & False, 200)] + seeds[1:], models)
+    assert np.array_equal(fit, left | right) and np.array_equal(grow_from, left | right)  # no band: each side alone
+    with pytest.raises(VtoError, match="^no hair found: the top of the head is out of frame"):
+        hl.hair_seeds(lab, [hl.Seed(seed.name, seed.where, 1000) for seed in seeds], models)  # too little in frame
 
 
 def test_helpers():
