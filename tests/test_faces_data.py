@@ -52,7 +52,8 @@ def test_every_record_has_its_source_licence_and_labels():
         assert isinstance(src, dict) and src.get("repository") and src.get("path") and src.get("origin"), r["file"]
         assert {"commit", "blob", "url"} <= set(src), r["file"]
         if src["repository"] == "kling109/ISS-Archaeology":
-            assert re.fullmatch(r"[0-9a-f]{40}", src["commit"]) and re.fullmatch(r"[0-9a-f]{40}", src["blob"]), r["file"]
+            hashes = (src["commit"], src["blob"])
+            assert all(re.fullmatch(r"[0-9a-f]{40}", h) for h in hashes), r["file"]
         assert r.get("licence", "").startswith("Public domain"), r["file"]
         assert r["split"] in SPLITS, r["file"]
         assert isinstance(r["lips_visible"], bool) and r["lipstick"] and r["lipstick_confidence"], r["file"]

@@ -200,8 +200,9 @@ def write_image(path, rgb, alpha=None, bits=None, orientation=1):
     no alpha), .exr ('half' or 'float'), .tif/.tiff (8, 16 or 'float'); the
     first listed is the default.  Integer formats clip to [0, 1] and refuse
     NaN/inf.  orientation: the EXIF/TIFF Orientation tag (1-8) stored with
-    the pixels, which are written as given (a phone's sideways photo).  The data go to a temporary file beside `path` that replaces it
-    only once complete, so a failed write leaves `path` untouched.
+    the pixels, which are written as given (a phone's sideways photo).  The
+    data go to a temporary file beside `path` that replaces it only once
+    complete, so a failed write leaves `path` untouched.
     """
     import OpenImageIO as oiio
 

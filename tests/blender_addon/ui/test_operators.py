@@ -539,7 +539,8 @@ def test_the_thumbnail_draws_a_tilted_faces_frame_turned_on_the_photo_as_shown(p
     centre, side = turned_lips_square(reference.lips.outer, reference.turn)
     across = np.array([np.cos(reference.turn), np.sin(reference.turn)])
     down = np.array([-across[1], across[0]])
-    scale, offset = SIZE / max(tilted.shape[:2]), (SIZE - np.array(tilted.shape[1::-1]) * SIZE / max(tilted.shape[:2])) // 2
+    scale = SIZE / max(tilted.shape[:2])
+    offset = (SIZE - np.array(tilted.shape[1::-1]) * scale) // 2
     for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1)):  # each corner of the turned square is drawn
         x, y = (centre + (across * sx + down * sy) * side / 2) * scale + offset
         assert frame[int(y) - 2:int(y) + 3, int(x) - 2:int(x) + 3].any(), (sx, sy)
