@@ -527,7 +527,8 @@ def test_the_thumbnail_outlines_the_lips_found():
 def test_the_thumbnail_draws_a_tilted_faces_frame_turned_on_the_photo_as_shown(portrait):
     import OpenImageIO as oiio
 
-    from blender_addon.matching.reference import lips_reference, turned_lips_square
+    from blender_addon.matching.reference import lips_reference
+    from vto_core.photo.framing import turned_lips_square
     from blender_addon.ui.thumbnail import CROP_COLOUR, SIZE, compose
 
     photo = read_image(portrait)[0]
