@@ -12,12 +12,11 @@ from vto_core.specs import get_spec
 
 from ..matching.apply import lipstick_nodes
 from ..renderers.tryon import find_lips, tryon_lipstick
-from .thumbnail import reference_pixels
+from .thumbnail import preview_icon, reference_pixels
 
 SIZE = 96  # px: each half of the preview (the photo, the try-on)
 SAMPLES = 8  # Cycles samples: a preview, not a dataset
 _made: dict[str, tuple[int, str, np.ndarray | None]] = {}  # material name -> (icon id, the note, the picture)
-_previews = None
 
 
 def material_values(material) -> dict[str, float]:
@@ -45,9 +44,6 @@ def compose(photo: np.ndarray, worn: np.ndarray, lips) -> np.ndarray:
 def refresh(material, photo: np.ndarray | None = None) -> tuple[int, str]:
     """Make the material's preview now, on `photo` (H, W, 3) or else the panel's reference: (its icon id, '') or (0,
     the one line saying why there is none)."""
-    global _previews
-    import bpy.utils.previews
-
     try:
         photo = reference_pixels(material.vto_match) if photo is None else photo
         lips = find_lips(photo)
@@ -56,14 +52,8 @@ def refresh(material, photo: np.ndarray | None = None) -> tuple[int, str]:
         text = str(exc) if isinstance(exc, VtoError) else f"{type(exc).__name__}: {(str(exc).splitlines() or [''])[0]}"
         _made[material.name] = (0, text, None)
         return shown(material)
-    if _previews is None:
-        _previews = bpy.utils.previews.new()
-    name = f"tryon:{material.name}"
-    preview = _previews.get(name) or _previews.new(name)
-    preview.image_size = picture.shape[1], picture.shape[0]
-    rgba = np.concatenate([picture, np.ones(picture.shape[:2] + (1,), np.float32)], axis=2)
-    preview.image_pixels_float.foreach_set(rgba[::-1].ravel())  # Blender's rows run bottom-up
-    _made[material.name] = (preview.icon_id, "", picture)  # headless, Blender gives previews icon id 0
+    # headless, Blender gives preview images icon id 0: the picture is kept for what reads it
+    _made[material.name] = (preview_icon(f"tryon:{material.name}", picture), "", picture)
     return shown(material)
 
 
@@ -79,11 +69,5 @@ def picture(material) -> np.ndarray | None:
 
 
 def unregister() -> None:
-    """Free the preview images."""
-    global _previews
-    if _previews is not None:
-        import bpy.utils.previews
-
-        bpy.utils.previews.remove(_previews)
-        _previews = None
+    """Forget the previews (their images go with the thumbnail's, thumbnail.unregister)."""
     _made.clear()

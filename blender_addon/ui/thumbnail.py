@@ -112,9 +112,6 @@ def icon(props, name: str, renderer: str = "lipstick") -> tuple[int, str]:
 
     With Find Lips (Find Hair) on and no mask (nor, for hair, a crop), the lips (the hair) are found as Match will
     find them, and outlined; the note says what the locator said (e.g. which face, or that it found none)."""
-    global _previews
-    import bpy.utils.previews
-
     key = source_key(props, renderer)
     if _previews is not None and _made.get(name, (None,))[0] == key:
         return _made[name][1], _made[name][2]
@@ -133,13 +130,24 @@ def icon(props, name: str, renderer: str = "lipstick") -> tuple[int, str]:
     except Exception as exc:  # VtoError, or anything a broken file raises: the thumbnail only says why
         _made[name] = (key, 0, (str(exc).splitlines() or [""])[0])
         return 0, _made[name][2]
+    icon_id = preview_icon(name, rgba)
+    _made[name] = (key, icon_id, note)
+    return icon_id, note
+
+
+def preview_icon(name: str, pixels: np.ndarray) -> int:
+    """Show pixels (H, W, 3 or 4), top row first, as the panel's preview image `name`; its icon id (0 headless)."""
+    global _previews
+    import bpy.utils.previews
+
     if _previews is None:
         _previews = bpy.utils.previews.new()
     preview = _previews.get(name) or _previews.new(name)
-    preview.image_size = (SIZE, SIZE)
-    preview.image_pixels_float.foreach_set(rgba[::-1].ravel())  # Blender's rows run bottom-up
-    _made[name] = (key, preview.icon_id, note)
-    return preview.icon_id, note
+    preview.image_size = pixels.shape[1], pixels.shape[0]
+    if pixels.shape[2] == 3:
+        pixels = np.concatenate([pixels, np.ones(pixels.shape[:2] + (1,), np.float32)], axis=2)
+    preview.image_pixels_float.foreach_set(np.ascontiguousarray(pixels[::-1], np.float32).ravel())  # rows bottom-up
+    return preview.icon_id
 
 
 def unregister() -> None:
