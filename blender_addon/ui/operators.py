@@ -134,8 +134,9 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
             self.report({"INFO"}, note)
         if stored is not None:
             remember(stored, job.renderer, result["values"], result["model"], result["seconds"])
-        if job.renderer == "lipstick" and stored is not None:
-            # the panel's Preview on Photo, after Match, on the photo Match read
+        if job.renderer == "lipstick" and stored is not None and not another_thread_renders():
+            # the panel's Preview on Photo, after Match, on the photo Match read (not while Blender renders: a render
+            # now would wait for the Python lock that render's thread needs, as Better does)
             preview.refresh(bpy.data.materials[job.material_name], job.prepared["reference"].whole)
         self.report({"INFO"}, f"matched {job.where} in {1000 * result['seconds']:.0f} ms: "
                               + ", ".join(apply.describe(result["spec"], result["values"])))
@@ -241,6 +242,9 @@ class VTO_OT_preview_on_photo(bpy.types.Operator):
         if material is None:
             self.report({"ERROR"}, f"no material '{self.material}' in this .blend" if self.material else
                         "no material: pass material=NAME or select an object with a material")
+            return {"CANCELLED"}
+        if another_thread_renders():
+            self.report({"ERROR"}, "Blender is rendering a preview: press Preview on Photo again in a moment")
             return {"CANCELLED"}
         note = preview.refresh(material)[1]
         if note:

@@ -212,7 +212,7 @@ def undo():
 
 def quality_label(props, renderer="lipstick"):
     """The cost line the panel shows under the Quality row, from the installed extension's panels module."""
-    return extension("panels").quality_cost(renderer, props.quality)
+    return extension("ui.panels").quality_cost(renderer, props.quality)
 
 
 def extension(module):
@@ -223,18 +223,19 @@ def extension(module):
 
 def lips_found(path):
     """What the add-on's lips locator finds in the reference: its box, how, score, and the frame the encoder reads."""
-    reference = extension("reference").read_reference("lipstick", {"image_path": path})
+    reference = extension("matching.reference").read_reference("lipstick", {"image_path": path})
     lips = reference.lips
-    return {"module": extension("reference").__name__, "box": [int(v) for v in lips.box], "how": lips.how,
+    return {"module": extension("matching.reference").__name__, "box": [int(v) for v in lips.box], "how": lips.how,
             "faces": int(lips.faces), "score": round(float(lips.score), 4), "frame": [int(v) for v in reference.box],
             "size": list(reference.whole.shape[:2])}
 
 
 def hair_found(path):
     """What the add-on's hair locator finds in the reference: the hair's box and mask (as a share), and the notes."""
-    reference = extension("reference").read_reference("hair", {"image_path": path})
+    reference = extension("matching.reference").read_reference("hair", {"image_path": path})
     hair = reference.hair
-    return {"module": extension("reference").__name__, "box": [int(v) for v in hair.box], "faces": int(hair.faces),
+    return {"module": extension("matching.reference").__name__, "box": [int(v) for v in hair.box],
+            "faces": int(hair.faces),
             "share": round(float(hair.mask.mean()), 4), "notes": list(reference.notes),
             "mask_rows": [[int(v) for v in row.nonzero()[0][[0, -1]]] if row.any() else [] for row in hair.mask > 0.5]}
 
@@ -264,8 +265,12 @@ def choose(buttons, quality, props, settle=0.4):
     return "property"
 
 
+def lips_material():
+    return bpy.data.objects["Cube"].active_material  # undo reloads the datablocks: look it up each time
+
+
 def lips_props():
-    return bpy.data.objects["Cube"].active_material.vto_match  # undo reloads the datablocks: look it up each time
+    return lips_material().vto_match
 
 
 def hair_props():
@@ -317,6 +322,8 @@ def script():
     first, first_ms = yield from click_match(lips_props, lips_inputs, "lips click 1")
     yield 1.0
     grab("lips_after", region_of(props_area))
+    shown = extension("ui.preview").shown(lips_material())  # Preview on Photo, made after Match
+    RESULT["preview_after_match"] = {"icon": int(shown[0]), "note": shown[1]}
     yield from undo()
     undone = lips_inputs()
     RESULT["reference_after_undo"] = lips_props().image_path
@@ -337,8 +344,8 @@ def script():
         RESULT["errors"].append(f"lips box: {type(exc).__name__}: {exc}")
 
     # Lips offer Fast only (the panel draws no Quality row for them, and says why: photo_fit.OFFERED).
-    lips["offered"] = list(extension("photo_fit").OFFERED["lipstick"])
-    lips["not_offered"] = extension("photo_fit").NOT_OFFERED.get("lipstick", "")
+    lips["offered"] = list(extension("matching.photo_fit").OFFERED["lipstick"])
+    lips["not_offered"] = extension("matching.photo_fit").NOT_OFFERED.get("lipstick", "")
 
     # The hair stage: the 3D viewport becomes the Compositor, its sidebar on the VTO tab.
     view = area_of("VIEW_3D")
@@ -373,7 +380,7 @@ def script():
     hair_second, hair_second_ms = yield from click_match(hair_props, hair_inputs, "hair click 2")
     RESULT["hair"] = {"defaults": hair_defaults, "first": hair_first, "undone": hair_undone, "second": hair_second,
                       "ms": [hair_ms, hair_second_ms], "estimate": estimate,
-                      "thumbnail_note": extension("thumbnail")._made.get("HAIR:", (0, 0, ""))[2]}
+                      "thumbnail_note": extension("ui.thumbnail")._made.get("HAIR:", (0, 0, ""))[2]}
     try:  # the hair the add-on finds in the whole portrait, through the installed extension's own module
         RESULT["hair"]["found"] = hair_found(HAIR_REF)
     except Exception as exc:  # noqa: BLE001

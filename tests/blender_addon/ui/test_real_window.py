@@ -100,6 +100,12 @@ def test_the_window_run_completes_without_errors(run):
         f"{run.log_tail}")
 
 
+def test_match_makes_the_preview_on_photo_in_a_real_window(run):
+    """After Match (Fast) on the whole portrait, the panel's Preview on Photo was made: an icon, no note."""
+    shown = run.window.get("preview_after_match")
+    assert shown and shown["note"] == "" and shown["icon"] > 0, shown
+
+
 def test_match_by_a_real_click_writes_the_inputs_and_one_undo_restores_them(run):
     lips = run.part("lips")
     for key in ("first", "undone", "second", "third", "estimate"):
