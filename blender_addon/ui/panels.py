@@ -96,6 +96,8 @@ def draw_match(layout, context, props, renderer: str, target: str, material_name
     """The shared body: reference, crop, mask, model, quality, Match, and the values last written."""
     column = split_column(layout)
     draw_reference(column, props, f"{target}:{material_name}", renderer)
+    if renderer == "lipstick" and material_name:
+        draw_preview(column, bpy.data.materials[material_name])
     preference = preference_model(context, renderer)
     model = apply.resolve_model(renderer, props.model_path, preference)
     try:
@@ -120,20 +122,17 @@ def draw_match(layout, context, props, renderer: str, target: str, material_name
         operator.material = material_name
     if props.last_estimate:
         draw_estimate(layout, props)
-    if renderer == "lipstick" and material_name:
-        draw_preview(layout, bpy.data.materials[material_name])
 
 
 def draw_preview(layout, material) -> None:
     """Preview on Photo: the reference's lips beside the material's current values tried on them, made on request
     and after Match."""
-    box = layout.box()
     icon_id, note = preview.shown(material)
     if note:
-        box.label(text=note, icon="ERROR")
+        layout.label(text=note, icon="ERROR")
     elif icon_id:
-        box.template_icon(icon_value=icon_id, scale=THUMBNAIL_SCALE / 2)
-    box.operator(VTO_OT_preview_on_photo.bl_idname, icon="IMAGE_RGB").material = material.name
+        layout.template_icon(icon_value=icon_id, scale=THUMBNAIL_SCALE)
+    layout.operator(VTO_OT_preview_on_photo.bl_idname, icon="IMAGE_RGB").material = material.name
 
 
 class MaterialMatch:

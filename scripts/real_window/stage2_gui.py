@@ -83,9 +83,10 @@ def hair_inputs():
 
 
 def find_button(region, shot):
-    """The X11 centre of the full-width push button lowest in `region` (Match: the only button spanning the panel),
-    found in the screenshot `shot`: rows of the button grey (84 in the default theme; panel headers are 61) across the region, at least 16 pixels high. Blender under
-    Xvfb does not take hover from xdotool's motion alone, so the UI cannot be asked which button is where."""
+    """The X11 centre of the tallest full-width push button in `region` (Match, drawn 1.4 times as high as the others;
+    the lowest of equals), found in the screenshot `shot`: rows of the button grey (84 in the default theme; panel
+    headers are 61) across the region, at least 16 pixels high. Blender under Xvfb does not take hover from
+    xdotool's motion alone, so the UI cannot be asked which button is where."""
     import numpy as np
 
     left, top, width, height = x11_rect(region)
@@ -110,8 +111,8 @@ def find_button(region, shot):
     bands = [(a, b) for a, b in bands if b - a >= 16]
     if not bands:
         raise RuntimeError(f"no push button found in {shot}")
-    y0, y1 = bands[-1]
-    log("button rows", y0, y1, "of", height)
+    y0, y1 = max(reversed(bands), key=lambda band: band[1] - band[0])
+    log("button rows", y0, y1, "of", height, "among", bands)
     return left + width // 2, top + (y0 + y1) // 2
 
 
@@ -322,8 +323,9 @@ def script():
     first, first_ms = yield from click_match(lips_props, lips_inputs, "lips click 1")
     yield 1.0
     grab("lips_after", region_of(props_area))
-    shown = extension("ui.preview").shown(lips_material())  # Preview on Photo, made after Match
+    shown = extension("ui.preview").shown(lips_material())  # Preview on Photo, made after Match ...
     RESULT["preview_after_match"] = {"icon": int(shown[0]), "note": shown[1]}
+    x, y = find_button(region_of(props_area), "lips_after")  # ... above Match, which it moves down
     yield from undo()
     undone = lips_inputs()
     RESULT["reference_after_undo"] = lips_props().image_path
