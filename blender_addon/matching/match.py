@@ -311,10 +311,10 @@ PREVIEW_SIZE = 256  # px: each panel of `vto match --preview`
 def preview(result: dict, image_path: str, samples: int, seed: int) -> np.ndarray:
     """(PREVIEW_SIZE, 3 PREVIEW_SIZE, 3): the photo around its lips | the estimate tried on it | the estimate on the
     default lips (source 0); VtoError for hair, or a photo without a face to try it on."""
-    from vto_core.photo.framing import square_view, view_cut
+    from vto_core.photo.framing import view_cut
 
     from ..renderers.lipstick import render_lipstick
-    from ..renderers.tryon import find_lips, tryon_lipstick
+    from ..renderers.tryon import around_lips, find_lips, tryon_lipstick
     from .reference import load_reference
 
     if result["renderer"] != "lipstick":
@@ -322,10 +322,7 @@ def preview(result: dict, image_path: str, samples: int, seed: int) -> np.ndarra
     photo = load_reference(image_path)
     lips = find_lips(photo)
     worn = tryon_lipstick(photo, result["params"], samples=samples, seed=seed)
-    outer = np.asarray(lips.outer, np.float64)
-    centre, side = (outer.min(axis=0) + outer.max(axis=0)) / 2, 2.2 * float(np.ptp(outer[:, 0]))
-    view, size = square_view(centre, side, 0.0)
-    view[:, :2] *= size / PREVIEW_SIZE
+    view = around_lips(lips, PREVIEW_SIZE)
     panels = [view_cut(image, view, PREVIEW_SIZE) for image in (photo, worn)]
     panels.append(render_lipstick(result["params"], 0, PREVIEW_SIZE, samples, seed))
     return np.concatenate(panels, axis=1)

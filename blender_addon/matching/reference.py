@@ -22,7 +22,7 @@ from vto_core.photo.framing import (MIN_SIZE, cut, cut_read, face_roll, lips_fra
                                     view_cut)
 from vto_core.photo.photo_light import light_of
 
-from ..shipped import FACE_DETECTOR, FACE_LANDMARKS, MODELS, PERSON_SEGMENTER, read_face
+from ..shipped import MODELS, PERSON_SEGMENTER, locate_lips, read_face
 
 NO_FACE_LIGHT = "no face: the photo's light is kept"  # a hair photo with no face to read its light from
 NO_FACE_HAIR = "no face: the whole image is read as hair"
@@ -174,14 +174,6 @@ class Reference:
     turn: float = 0.0  # radians, clockwise: how far `image` is turned from the photo (the face's roll), 0 on the grid
 
 
-def locate_lips(image: np.ndarray, face=None):
-    """vto_core.photo.lips_locator.LipsFound for (H, W, 3) with the shipped face models (loaded once), from `face` where
-    it was read already; VtoError 'no lips found ...' where there are none."""
-    from vto_core.photo.lips_locator import cached_locator
-
-    return cached_locator(MODELS / FACE_DETECTOR, MODELS / FACE_LANDMARKS).locate(image, face)
-
-
 def locate_hair(image: np.ndarray, face, light=None):
     """vto_core.photo.hair_locator.HairFound: the hair of `face`'s person in (H, W, 3), with the shipped person model,
     its colours read with the photo's `light` taken out (None: as they are); VtoError 'no hair found ...' where there is
@@ -250,13 +242,15 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     if neutral_light and mask is not None:
         light = light_of(whole, mask)
         notes.append(light.describe())
-    view, size, turn = lips_view(lips) if crop is None and lips is not None else (None, 0, 0.0)
-    if turn:  # a tilted head: the lips framed along the face's own axes, turned upright
-        image = view_cut(whole, view, size, light)
-        lips_mask = (view_cut(mask, view, size)[..., 0] > 0.5).astype(np.float32)
-        return Reference(image, (image, lips_mask), whole, view_box(view, size, mask.shape), lips,
-                         notes + turn_note(turn), light, turn=turn)
-    if crop is None and mask is not None:
+    if crop is None and lips is not None:
+        view, size, turn = lips_view(lips)
+        if turn:  # a tilted head: the lips framed along the face's own axes, turned upright
+            image = view_cut(whole, view, size, light)
+            lips_mask = (view_cut(mask, view, size)[..., 0] > 0.5).astype(np.float32)
+            return Reference(image, (image, lips_mask), whole, view_box(view, size, mask.shape), lips,
+                             notes + turn_note(turn), light, turn=turn)
+        box = (int(view[0, 2]), int(view[1, 2]), size, size)  # lips_frame of the lips found
+    elif crop is None and mask is not None:
         box = lips_frame(mask)
     image = cut_read(whole, box, light)
     region = None if mask is None else (image, cut(mask, box))

@@ -62,7 +62,12 @@ def scene_values(scene: bpy.types.Scene) -> dict[str, float]:
     nodes = makeup_nodes(scene)
     if not nodes:
         raise VtoError(f"scene '{scene.name}' has no material using the '{GROUP_NAME}' node group")
-    inputs = nodes[0].inputs
+    return node_values(nodes[0])
+
+
+def node_values(node: bpy.types.Node) -> dict[str, float]:
+    """A "VTO Lipstick" group node's inputs as the artist set them (linked ones left out)."""
+    inputs = node.inputs
     return {p.name: float(inputs[p.socket].default_value) for p in get_spec("lipstick").params
             if not inputs[p.socket].is_linked}
 

@@ -18,13 +18,13 @@ from vto_core.colour import linear_to_srgb, srgb_to_linear
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.photo.face_reader import apply_matrix, polygon_mask, sample_bilinear
-from vto_core.photo.framing import lips_view, view_cut
+from vto_core.photo.framing import lips_view, square_view, view_cut
 from vto_core.photo.lips_locator import LIP_INNER, LIP_OUTER, lips_mask
 from vto_core.photo.photo_light import light_of
-from vto_core.photo.tryon import composite, feathered, lips_mesh
+from vto_core.photo.tryon import composite, feathered, lips_mesh, worn_over_bare
 from vto_core.specs import get_spec
 
-from ..shipped import FACE_DETECTOR, FACE_LANDMARKS, MODELS
+from ..shipped import locate_lips
 from .cycles import configure_cycles, render_passes
 from .lipstick import set_lipstick_values
 from .scene_photo import build_photo_scene, set_light_and_lips, set_lips
@@ -39,10 +39,8 @@ EDGE = 3  # px around the lips' box: more than the soft mask reaches (vto_core.p
 def find_lips(photo: np.ndarray):
     """The lips of the largest face of (H, W, 3) (vto_core.photo.lips_locator.LipsFound); VtoError 'no face found
     ...' where there is no face, or its lips are too small to render onto."""
-    from vto_core.photo.lips_locator import cached_locator
-
     try:
-        lips = cached_locator(MODELS / FACE_DETECTOR, MODELS / FACE_LANDMARKS).locate(photo)
+        lips = locate_lips(photo)
     except VtoError:
         lips = None
     if lips is None or lips.how != "face":
@@ -74,8 +72,7 @@ def product_ratio(frame: np.ndarray, points: np.ndarray, depth: np.ndarray | Non
     for opacity in (None, 0.0):
         set_lipstick_values(scene, values if opacity is None else {**values, "opacity": opacity})
         renders.append(render_passes(scene)["Combined"][..., :3])
-    worn, bare = renders
-    ratio = np.maximum(worn, 0.0) / np.maximum(bare, 1e-4)
+    ratio = worn_over_bare(renders[1], renders[0])
     if res == size:
         return ratio
     centres = (np.arange(size) + 0.5) * scale
@@ -90,8 +87,7 @@ def tryon_lipstick(photo: np.ndarray, values: dict[str, float], crop: int | None
     values = get_spec("lipstick").check_values(values)
     photo = np.clip(np.nan_to_num(np.asarray(photo, np.float32)), 0.0, 1.0)
     lips = find_lips(photo)
-    light = light_of(photo, lips.mask)
-    cast = light.gains / np.exp(np.mean(np.log(light.gains)))
+    cast = light_of(photo, lips.mask).cast
     view, size, _ = lips_view(lips)
     n = crop or min(size, MAX_RENDER * 2)
     view = view.copy()
@@ -104,27 +100,35 @@ def tryon_lipstick(photo: np.ndarray, values: dict[str, float], crop: int | None
     frame_mask, _ = lips_mask(points[LIP_OUTER], points[LIP_INNER], n, n)
     ratio = product_ratio(frame, points, depth, frame_mask, cast, values, samples, seed)
     if crop:
-        worn = composite(srgb_to_linear(frame), np.ones_like(ratio), ratio, feathered(frame_mask), values["opacity"])
+        worn = composite(srgb_to_linear(frame), ratio, feathered(frame_mask), values["opacity"])
         return np.clip(linear_to_srgb(worn), 0.0, 1.0).astype(np.float32)
-    return on_photo(photo, lips, view, ratio, values["opacity"])
+    return on_photo(photo, lips, to_frame, ratio, values["opacity"])
 
 
-def on_photo(photo: np.ndarray, lips, view: np.ndarray, ratio: np.ndarray, opacity: float) -> np.ndarray:
-    """The photo with the frame's product ratio (n, n, 3) applied inside its lips' soft mask; every other pixel is
-    the photo's own, unchanged."""
+def around_lips(lips, size: int) -> np.ndarray:
+    """The view (2, 3) of a size x size square on the photo's found lips and around them (2.2 lips widths across,
+    upright): what the previews show of a photo."""
+    outer = np.asarray(lips.outer, np.float64)
+    view, side = square_view((outer.min(axis=0) + outer.max(axis=0)) / 2, 2.2 * float(np.ptp(outer[:, 0])), 0.0)
+    view[:, :2] *= side / size
+    return view
+
+
+def on_photo(photo: np.ndarray, lips, to_frame: np.ndarray, ratio: np.ndarray, opacity: float) -> np.ndarray:
+    """The photo with the frame's product ratio (n, n, 3) applied inside its lips' soft mask (to_frame (2, 3): photo
+    pixels to the frame's); every other pixel is the photo's own, unchanged."""
     x, y, w, h = lips.box
     height, width = photo.shape[:2]
     x0, y0 = max(0, x - EDGE), max(0, y - EDGE)
     x1, y1 = min(width, x + w + EDGE), min(height, y + h + EDGE)
     inner = polygon_mask(np.asarray(lips.inner), x0, y0, x1 - x0, y1 - y0)
     mask = polygon_mask(np.asarray(lips.outer), x0, y0, x1 - x0, y1 - y0) & ~inner
-    to_frame = np.linalg.inv(np.vstack([view, [0.0, 0.0, 1.0]]))[:2]
     xs, ys = np.meshgrid(np.arange(x0, x1) + 0.5, np.arange(y0, y1) + 0.5)
     u = to_frame[0, 0] * xs + to_frame[0, 1] * ys + to_frame[0, 2]
     v = to_frame[1, 0] * xs + to_frame[1, 1] * ys + to_frame[1, 2]
     local = sample_bilinear(ratio, u, v).transpose(1, 2, 0)
     soft = feathered(mask)
-    worn = composite(srgb_to_linear(photo[y0:y1, x0:x1]), np.ones_like(local), local, soft, opacity)
+    worn = composite(srgb_to_linear(photo[y0:y1, x0:x1]), local, soft, opacity)
     out = photo.copy()
     out[y0:y1, x0:x1][soft > 0] = np.clip(linear_to_srgb(worn), 0.0, 1.0)[soft > 0]
     return out

@@ -7,11 +7,12 @@ from __future__ import annotations
 import numpy as np
 
 from vto_core.errors import VtoError
-from vto_core.photo.framing import square_view, view_cut
+from vto_core.photo.framing import view_cut
 from vto_core.specs import get_spec
 
 from ..matching.apply import lipstick_nodes
-from ..renderers.tryon import find_lips, tryon_lipstick
+from ..renderers.lipstick import node_values
+from ..renderers.tryon import around_lips, find_lips, tryon_lipstick
 from .thumbnail import preview_icon, reference_pixels
 
 SIZE = 96  # px: each half of the preview (the photo, the try-on)
@@ -24,20 +25,12 @@ def material_values(material) -> dict[str, float]:
     nodes = lipstick_nodes(material)
     if not nodes:
         raise VtoError(f"material '{material.name}' does not use the 'VTO Lipstick' node group")
-    spec = get_spec("lipstick")
-    values = {}
-    for param in spec.params:
-        socket = nodes[0].inputs.get(param.socket)
-        if socket is not None and not socket.is_linked:
-            values[param.name] = float(socket.default_value)
-    return spec.full_values(values)
+    return get_spec("lipstick").full_values(node_values(nodes[0]))
 
 
 def compose(photo: np.ndarray, worn: np.ndarray, lips) -> np.ndarray:
     """(SIZE, 2 SIZE, 3): the photo around its lips | the same part of the try-on."""
-    outer = np.asarray(lips.outer, np.float64)
-    view, size = square_view((outer.min(axis=0) + outer.max(axis=0)) / 2, 2.2 * float(np.ptp(outer[:, 0])), 0.0)
-    view[:, :2] *= size / SIZE
+    view = around_lips(lips, SIZE)
     return np.concatenate([view_cut(image, view, SIZE) for image in (photo, worn)], axis=1)
 
 

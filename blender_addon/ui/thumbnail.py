@@ -8,7 +8,8 @@ import os
 import numpy as np
 
 from vto_core.errors import VtoError
-from vto_core.photo.framing import face_roll, lips_frame, turned_lips_square
+from vto_core.photo.face_reader import apply_matrix
+from vto_core.photo.framing import lips_view
 
 from ..matching.reference import (absolute_path, crop_box, datablock_pixels, hair_reference, lips_reference,
                                   load_reference, read_mask)
@@ -78,14 +79,13 @@ def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None, hai
         canvas[top:top + h, left:left + w, :3][edge] = HAIR_COLOUR
     if lips is not None:  # the outer contour: at thumbnail size a mouth is a few pixels, the inner one would fill it
         outline(canvas, np.asarray(lips.outer, np.float64) * scale + (left, top), LIPS_COLOUR, width=1)
-        turn = face_roll(lips.landmarks) if lips.how == "face" else 0.0
-        if turn:  # the frame the encoder reads, turned with the face, on the photo as it is shown
-            centre, side = turned_lips_square(lips.outer, turn)
-            across, down = np.array([np.cos(turn), np.sin(turn)]), np.array([-np.sin(turn), np.cos(turn)])
-            corners = [centre + (across * sx + down * sy) * side / 2 for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
-            outline(canvas, np.array(corners) * scale + (left, top), CROP_COLOUR)
-        elif lips.how == "face":
-            crop = lips_frame(lips.mask)
+        if lips.how == "face":  # the frame the encoder reads, turned with a tilted face, on the photo as shown
+            view, size, turn = lips_view(lips)
+            if turn:
+                corners = apply_matrix(view, np.array([[0, 0], [size, 0], [size, size], [0, size]], np.float64))
+                outline(canvas, corners * scale + (left, top), CROP_COLOUR)
+            else:
+                crop = (int(view[0, 2]), int(view[1, 2]), size, size)
     if crop is not None:
         x, y, cw, ch = crop_box(crop, width, height)
         x0, y0 = left + int(x * scale), top + int(y * scale)

@@ -352,28 +352,18 @@ class FaceReader:
 
     def accepted_faces(self, image: np.ndarray, faces: list[Detection]) -> list[tuple[Detection, np.ndarray, float]]:
         """The detections (largest first; at most MAX_FACES_CHECKED) that the mesh takes for faces, each with its
-        (468, 3) landmarks (x, y, depth in image pixels) and its face probability."""
+        (468, 3) landmarks (x, y, depth in image pixels) and its face logit (mesh_read)."""
         accepted = []
         for detection in faces[:MAX_FACES_CHECKED]:
-            landmarks, score = self.landmarks(image, detection)
-            if score >= MIN_FACE_SCORE:
-                accepted.append((detection, landmarks, score))
+            landmarks, logit = self.mesh_read(image, *face_region(detection))
+            if sigmoid(np.float64(logit)) >= MIN_FACE_SCORE:
+                accepted.append((detection, landmarks, logit))
         return accepted
 
-    def landmarks(self, image: np.ndarray, detection: Detection) -> tuple[np.ndarray, float]:
-        """(H, W, 3) and a face -> the mesh's (468, 3) landmarks (x, y, depth) in image pixels and its face
-        probability."""
-        return self.mesh_landmarks(image, *face_region(detection))
-
-    def mesh_landmarks(self, image: np.ndarray, centre: np.ndarray, side: float, angle: float
-                       ) -> tuple[np.ndarray, float]:
-        """The mesh on the square region (centre (2,), side px, angle rad) of (H, W, 3) -> (468, 3) landmarks (x, y,
-        depth; depth at the scale of x and y, nearer the camera lower) in image pixels and the face probability."""
-        landmarks, logit = self.mesh_read(image, centre, side, angle)
-        return landmarks, float(sigmoid(np.float64(logit)))
-
     def mesh_read(self, image: np.ndarray, centre: np.ndarray, side: float, angle: float) -> tuple[np.ndarray, float]:
-        """mesh_landmarks with the face logit (clipped to +-RAW_SCORE_LIMIT) in place of its probability."""
+        """The mesh on the square region (centre (2,), side px, angle rad) of (H, W, 3) -> (468, 3) landmarks (x, y,
+        depth; depth at the scale of x and y, nearer the camera lower) in image pixels and the face logit (before its
+        sigmoid, clipped to +-RAW_SCORE_LIMIT)."""
         matrix = square_matrix(centre, side, angle, MESH_SIZE)
         points, logit = self.mesh.run(None, {self.mesh_input: warp(image, matrix, MESH_SIZE)[None]})
         points = points.reshape(-1, 3).astype(np.float64)
@@ -415,25 +405,24 @@ class FaceReader:
         """The largest of `faces` (accepted_faces, seen through a view turned by `view` rad) read again on the
         region its landmarks give until its roll settles, and turned over where the mesh is unsure (an upside-down
         face seen upright): (the face, whether the mesh kept it on the second look, view)."""
-        detection, landmarks, score = faces[0]
+        detection, landmarks, logit = faces[0]
         kept = True
         if self.refine:
-            landmarks, logit, kept = self.settle(image, landmarks, score)
+            landmarks, logit, kept = self.settle(image, landmarks, logit)
             if logit < SURE_FACE_LOGIT:
                 centre, side, angle = landmarks_region(landmarks[:, :2])
                 over, over_logit = self.mesh_read(image, centre, side, angle + math.pi)
                 if over_logit > logit:
-                    landmarks, logit, kept = self.settle(image, over, float(sigmoid(np.float64(over_logit))))
-            score = float(sigmoid(np.float64(logit)))
+                    landmarks, logit, kept = self.settle(image, over, over_logit)
         xmin, ymin, xmax, ymax = (float(v) for v in detection.box)
         box = (xmin, ymin, xmax - xmin, ymax - ymin)
+        score = float(sigmoid(np.float64(logit)))
         return FaceRead(landmarks[:, :2], score, len(faces), box, landmarks[:, 2]), kept, view
 
-    def settle(self, image: np.ndarray, landmarks: np.ndarray, score: float) -> tuple[np.ndarray, float, bool]:
-        """(468, 3) landmarks (face probability `score`) read again on the region they give, until the roll moves
-        less than SETTLED_ROLL (at most REFINE_PASSES): (the landmarks, the last kept pass's face logit, whether the
-        mesh kept the face on the first pass)."""
-        logit = float(np.log(score) - np.log1p(-score)) if score < 1 else RAW_SCORE_LIMIT
+    def settle(self, image: np.ndarray, landmarks: np.ndarray, logit: float) -> tuple[np.ndarray, float, bool]:
+        """(468, 3) landmarks (face logit `logit`) read again on the region they give, until the roll moves less than
+        SETTLED_ROLL (at most REFINE_PASSES): (the landmarks, the last kept pass's face logit, whether the mesh kept
+        the face on the first pass)."""
         for attempt in range(REFINE_PASSES):
             refined, refined_logit = self.mesh_read(image, *landmarks_region(landmarks[:, :2]))
             if sigmoid(np.float64(refined_logit)) < MIN_FACE_SCORE:

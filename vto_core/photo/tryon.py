@@ -1,8 +1,8 @@
 """The lipstick on a photo, the part without Blender: the lips mesh from the face mesh, and the composite that keeps
 the photo's own lips under the product.
 
-The renderer (blender_addon.renderers.tryon) renders the lips mesh twice under the photo's light, bare (`bare`, the
-lips' own shader with the photo's mean lip colour) and wearing the product (`worn`). Their ratio is what the
+The renderer (blender_addon.renderers.tryon) renders the lips mesh twice under the photo's light, bare (the lips' own
+shader with the photo's mean lip colour) and wearing the product. Their ratio (worn_over_bare) is what the
 product does to the lips there, with the render's own shading divided out; the photo times that ratio keeps the
 photo's shading, lip lines and skin-side edges. Under an opaque product the photo's own highlights are first
 lowered to its lips' typical brightness (a matte product loses the shine; a glossy one brings the render's).
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..colour import luminance
 from .lips_locator import LIP_INNER, LIP_OUTER
 
 MESH_ROWS = 4  # rings of quads from the outer lip contour (v = 0) to the inner one (v = 1)
@@ -66,25 +67,31 @@ def feathered(mask: np.ndarray, radius: int = FEATHER) -> np.ndarray:
     return np.clip(soft, 0.0, 1.0)
 
 
+def worn_over_bare(bare: np.ndarray, worn: np.ndarray) -> np.ndarray:
+    """What the product does to the lips: worn / bare (h, w, 3) linear renders, finite for any input (a black bare
+    render divides as RATIO_FLOOR, the ratio stops at RATIO_CEILING, NaN and inf read as 0)."""
+    worn = np.clip(np.nan_to_num(np.asarray(worn, np.float32), posinf=0.0), 0.0, None)
+    return np.clip(worn / np.maximum(np.nan_to_num(bare), RATIO_FLOOR), 0.0, RATIO_CEILING).astype(np.float32)
+
+
 def lowered_highlights(photo: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """The photo (h, w, 3) linear with its lips' brightness capped at their HIGHLIGHT_QUANTILE (mask (h, w) > 0.5):
     lip lines and shading kept, shine taken down. Unchanged where the mask is empty."""
     inside = mask > 0.5
     if not inside.any():
         return photo
-    luminance = photo @ np.array([0.2126, 0.7152, 0.0722], np.float32)
-    cap = np.float32(np.quantile(luminance[inside], HIGHLIGHT_QUANTILE))
-    scale = np.minimum(1.0, cap / np.maximum(luminance, 1e-6))
+    brightness = luminance(photo)
+    cap = np.float32(np.quantile(brightness[inside], HIGHLIGHT_QUANTILE))
+    scale = np.minimum(1.0, cap / np.maximum(brightness, 1e-6))
     return photo * scale[..., None]
 
 
-def composite(photo: np.ndarray, bare: np.ndarray, worn: np.ndarray, mask: np.ndarray, opacity: float) -> np.ndarray:
-    """The photo (h, w, 3) linear wearing the product: photo x worn / bare inside the soft `mask` (h, w) in [0, 1],
-    the photo's highlights lowered in proportion to `opacity`; the photo itself where the mask is 0. Finite for any
-    input: a black bare render divides as RATIO_FLOOR, the ratio stops at RATIO_CEILING, NaN and inf read as 0."""
+def composite(photo: np.ndarray, ratio: np.ndarray, mask: np.ndarray, opacity: float) -> np.ndarray:
+    """The photo (h, w, 3) linear wearing the product: photo x ratio (worn_over_bare) inside the soft `mask` (h, w)
+    in [0, 1], the photo's highlights lowered in proportion to `opacity`; the photo itself where the mask is 0.
+    Finite for any input (the ratio kept in [0, RATIO_CEILING], NaN read as 0)."""
     photo = np.clip(np.nan_to_num(np.asarray(photo, np.float32)), 0.0, None)
-    worn = np.clip(np.nan_to_num(np.asarray(worn, np.float32), posinf=0.0), 0.0, None)
-    ratio = np.clip(worn / np.maximum(np.nan_to_num(bare), RATIO_FLOOR), 0.0, RATIO_CEILING)
+    ratio = np.clip(np.nan_to_num(np.asarray(ratio, np.float32), posinf=0.0), 0.0, RATIO_CEILING)
     opacity = float(np.clip(opacity, 0.0, 1.0))
     under = photo * (1 - opacity) + lowered_highlights(photo, mask) * opacity
     soft = np.clip(np.nan_to_num(mask), 0.0, 1.0)[..., None]

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from vto_core.photo.lips_locator import LIP_INNER, LIP_OUTER
-from vto_core.photo.tryon import MESH_ROWS, composite, feathered, lips_mesh, lowered_highlights
+from vto_core.photo.tryon import MESH_ROWS, composite, feathered, lips_mesh, lowered_highlights, worn_over_bare
 
 
 def face_points():
@@ -43,10 +43,10 @@ def test_the_composite_keeps_the_photo_off_the_lips_and_where_the_product_change
     mask = np.zeros((16, 16), np.float32)
     mask[4:12, 4:12] = 1
     ratio = np.full((16, 16, 3), 0.25, np.float32)
-    worn = composite(photo, np.ones_like(ratio), ratio, mask, 0.0)
+    worn = composite(photo, worn_over_bare(np.ones_like(ratio), ratio), mask, 0.0)
     assert np.array_equal(worn[mask == 0], photo[mask == 0])
     assert np.allclose(worn[mask == 1], photo[mask == 1] * 0.25)  # a transparent product: the photo x the ratio
-    assert np.allclose(composite(photo, ratio, ratio, mask, 0.7)[mask == 0], photo[mask == 0])
+    assert np.allclose(composite(photo, worn_over_bare(ratio, ratio), mask, 0.7)[mask == 0], photo[mask == 0])
     lowered = lowered_highlights(photo, mask)
     assert np.all(lowered <= photo + 1e-7) and lowered[mask == 1].max() < photo[mask == 1].max()
 
@@ -54,7 +54,7 @@ def test_the_composite_keeps_the_photo_off_the_lips_and_where_the_product_change
 def test_extremes_stay_finite():
     photo = np.full((8, 8, 3), np.nan, np.float32)
     black = np.zeros((8, 8, 3), np.float32)
-    out = composite(photo, black, np.full((8, 8, 3), np.inf, np.float32), np.ones((8, 8)), 2.0)
+    out = composite(photo, worn_over_bare(black, np.full((8, 8, 3), np.inf, np.float32)), np.ones((8, 8)), 2.0)
     assert np.isfinite(out).all()
     assert np.array_equal(lowered_highlights(black, np.zeros((8, 8))), black)
-    assert composite(black, black, black, np.zeros((8, 8)), -1.0) == pytest.approx(black)
+    assert composite(black, worn_over_bare(black, black), np.zeros((8, 8)), -1.0) == pytest.approx(black)
