@@ -75,6 +75,9 @@ class EncoderConfig(CommonConfig):
     augment: bool = False  # mirrored and shifted views of each render (training/data.augment)
     photo_views: bool = False  # what photos show and renders do not: tilt, zoom, blur, sensor noise (data.photo_views)
     mouth_views: bool = False  # lips: open mouths with teeth and skin texture (data.open_mouths, data.skin_texture)
+    init: str = ""  # start from this exported encoder's weights (.onnx of the same network and spec): fine-tuning
+    colour_imitator: str = ""  # an exported colour imitator (.onnx, the data's spec) for the colour loss
+    lambda_colour: float = 0.0  # the colour loss: what the estimate shows on the default lips against the truth's
 
 
 @dataclass
@@ -177,7 +180,7 @@ def validate(config) -> None:
     for name in ("beta1", "beta2"):
         if hasattr(config, name) and not 0.0 <= getattr(config, name) < 1.0:
             raise VtoError(f"{name} must be in [0, 1), got {getattr(config, name)}")
-    for name in ("lambda_imitation", "lambda_sens", "lambda_gp", "lambda_rendering"):
+    for name in ("lambda_imitation", "lambda_sens", "lambda_gp", "lambda_rendering", "lambda_colour"):
         if hasattr(config, name) and not getattr(config, name) >= 0:
             raise VtoError(f"{name} must be at least 0, got {getattr(config, name)}")
     if not 0.0 <= config.val_fraction < 1.0:

@@ -61,6 +61,52 @@ def load_encoder_runs(run_paths: list[str]) -> list[dict]:
     return checkpoints
 
 
+def onnx_encoder_weights(path: str, encoder: torch.nn.Module, spec: RendererSpec) -> dict[str, torch.Tensor]:
+    """The weights of an exported encoder (`vto export`) as `encoder`'s state dict: what fine-tuning starts from.
+    VtoError where the file is for another spec or another network (its tensors' names or shapes differ)."""
+    import onnx
+    from onnx import numpy_helper
+
+    EncoderSession(path, expected_spec=spec)  # refuses a file that is not an encoder, or one of another spec
+    stored = {}
+    for tensor in onnx.load(path).graph.initializer:
+        name = tensor.name.split("encoders.0.", 1)[-1].split("encoder.", 1)[-1]  # MirrorAveraged / Averaged wrappers
+        stored[name] = torch.from_numpy(numpy_helper.to_array(tensor).copy())
+    state = {}
+    for name, current in encoder.state_dict().items():
+        if name.endswith("num_batches_tracked"):
+            state[name] = current
+        elif name not in stored or stored[name].shape != current.shape:
+            raise VtoError(f"{path} holds another network than this run's (no {name} of shape "
+                           f"{tuple(current.shape)}): set width, n_layers, blocks and batch_norm as it was trained")
+        else:
+            state[name] = stored[name].to(current.dtype)
+    return state
+
+
+def onnx_colour_net(path: str, spec: RendererSpec) -> torch.nn.Module:
+    """An exported colour imitator (`vto train colour`) as a frozen torch ColourNet for the colour loss. VtoError
+    for another spec, or a skin-conditioned one (it reads the skin as well as the parameters)."""
+    import onnx
+    from onnx import numpy_helper
+
+    from vto_core.colour_imitator import ColourImitator
+
+    from .train_colour import ColourNet
+
+    imitator = ColourImitator(path)  # refuses a file that is not a colour imitator
+    if not imitator.spec.same_as(spec) or imitator.typical_skin is not None:
+        raise VtoError(f"{path} is not a colour imitator of the data's spec that reads the parameters alone")
+    stored = {t.name: torch.from_numpy(numpy_helper.to_array(t).copy()) for t in onnx.load(path).graph.initializer}
+    net = ColourNet(spec.size, stored["body.6.bias"].numel(), stored["body.0.bias"].numel(), stored["mean"].numpy(),
+                    stored["scale"].numpy())
+    net.load_state_dict({name: stored[name] for name in net.state_dict()})
+    net.eval()
+    for parameter in net.parameters():
+        parameter.requires_grad_(False)
+    return net
+
+
 def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, mirror: bool = True) -> dict:
     """RUN/checkpoint.pt (or several runs, averaged: networks.Averaged) -> out_path (.onnx); onnx.checker and
     onnxruntime-vs-torch parity must pass. With `mirror`, runs all trained on mirrored views are exported

@@ -88,6 +88,15 @@ def graphics_loss(g_true, g_pred, wraps=None, error="squared", weights=None):
     return per_parameter.sum(dim=1).mean()
 
 
+COLOUR_UNIT = 10.0  # CIELAB units: a colour-statistics difference of this size costs as a unit parameter error does
+
+
+def colour_loss(colour_net, g_true, g_pred):
+    """What the estimate shows against what the truth shows: mean squared difference of the colour imitator's
+    statistics (CIELAB, training.train_colour.ColourNet, frozen) of (B, m) unit parameters, in COLOUR_UNITs."""
+    return ((colour_net(g_pred.clamp(0.0, 1.0)) - colour_net(g_true)) / COLOUR_UNIT).square().mean()
+
+
 def parameter_weights(setting: str, names: list[str]) -> list[float] | None:
     """'name=weight,...' -> a weight per name in `names` (1 where not named), or None for an empty setting."""
     if not setting.strip():

@@ -13,7 +13,8 @@ from vto_core.specs import RendererSpec
 from .config import EncoderConfig, config_dict, data_record, with_epochs
 from .data import RenderDataset, encoder_views, make_loader, per_process_batch, split, training_batches
 from .distributed import Processes, processes
-from .losses import PerceptualDistance, graphics_loss, parameter_difference, parameter_weights, weighted_total
+from .losses import (PerceptualDistance, colour_loss, graphics_loss, parameter_difference, parameter_weights,
+                     weighted_total)
 from .networks import Encoder, build
 from .run import RunFolder, optimise
 
@@ -42,8 +43,9 @@ def load_frozen_imitator(run_path: str, spec: RendererSpec, device: str,
 
 
 def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: EncoderConfig, wraps=None,
-                   weights=None):
-    """g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g): (log dict, total).
+                   weights=None, colour_net=None):
+    """g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g), colour loss through the
+    colour imitator (colour_net) where given: (log dict, total).
 
     The log holds each term unweighted and `<term>_weighted` (as it enters the total), and the total.
     """
@@ -55,6 +57,8 @@ def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: 
         terms["graphics"] = (graphics_loss(g, g_hat, wraps, config.graphics_error, weights), 1.0)
     if config.loss in ("rendering", "both"):
         terms["rendering"] = (perceptual(imitator(batch["source"].to(device), g_hat), render), config.lambda_rendering)
+    if colour_net is not None:
+        terms["colour"] = (colour_loss(colour_net, g, g_hat), config.lambda_colour)
     return weighted_total(terms)
 
 
@@ -97,6 +101,20 @@ def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], 
     imitator = load_frozen_imitator(imitator_run, reader.spec, device, image_size) if use_rendering else None
     train_positions, val_positions = split(reader, config.val_fraction)
     config = with_epochs(config, len(train_positions))
+    initial = None
+    if config.init:  # fine-tuning: refused here, before a run folder exists, for another spec or network
+        from .export import onnx_encoder_weights
+
+        initial = onnx_encoder_weights(config.init, Encoder(reader.spec.size, config.width, config.n_layers,
+                                                            pool_size=config.pool_size, blocks=config.blocks,
+                                                            batch_norm=int(config.batch_norm)), reader.spec)
+    colour_net = None
+    if config.lambda_colour > 0:
+        from .export import onnx_colour_net
+
+        if not config.colour_imitator:
+            raise VtoError("lambda_colour > 0 needs colour_imitator=FILE.onnx (vto train colour's output)")
+        colour_net = onnx_colour_net(config.colour_imitator, reader.spec).to(device)
     run = RunFolder(out)
     if procs.is_main:
         run.save_config({**config_dict(config), "kind": "encoder", "data": data_record(data), "imitator": imitator_run,
@@ -117,6 +135,8 @@ def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], 
     global_batch = per_process_batch(config.batch_size, len(train_set), procs.world_size) * procs.world_size
     step, position = 0, 0
     checkpoint = run.load_checkpoint()
+    if checkpoint is None and initial is not None:
+        encoder.load_state_dict(initial)
     if checkpoint is not None:
         encoder.load_state_dict(checkpoint["model"])
         optimiser.load_state_dict(checkpoint["optimizer"])
@@ -144,7 +164,7 @@ def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], 
     model = procs.wrap(encoder)
     optimise(run, config, step, batches,
              lambda batch: encoder_losses(model, imitator, perceptual, encoder_views(batch, config),
-                                          runtime, wraps, weights),
+                                          runtime, wraps, weights, colour_net),
              optimiser, validate, save, procs)
 
     # 4. Loss plot.

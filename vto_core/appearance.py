@@ -17,15 +17,18 @@ LIGHTNESS_QUANTILES = (0.1, 0.5, 0.9, 0.98)  # 0.98: the highlights
 CHROMA_QUANTILES = (0.25, 0.75)
 MEAN_WEIGHT = 2.0
 MIN_PIXELS = 4
+LAB_CHUNK = 1 << 20  # pixels converted to CIELAB at a time (lab_of_pixels)
 
 
 def region_pixels(rgb: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """rgb (H, W, 3) display values and mask (H, W) (> 0.5 is the region) -> (N, 3) the region's pixels in [0, 1]."""
     rgb = np.asarray(rgb, np.float32)
-    mask = np.nan_to_num(np.asarray(mask, np.float32), nan=0.0) > 0.5
+    mask = np.asarray(mask)
+    mask = mask if mask.dtype == bool else np.asarray(mask, np.float32) > 0.5  # NaN is outside
     if rgb.ndim != 3 or rgb.shape[2] != 3 or mask.shape != rgb.shape[:2]:
         raise VtoError(f"a region is an (H, W, 3) image and an (H, W) mask, got {rgb.shape} and {mask.shape}")
-    pixels = np.clip(np.nan_to_num(rgb[mask], nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+    pixels = rgb[mask]  # a copy of the region's pixels, cleaned in place
+    np.clip(np.nan_to_num(pixels, copy=False, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0, out=pixels)
     if len(pixels) < MIN_PIXELS:
         raise VtoError(f"the region has {len(pixels)} pixel(s); at least {MIN_PIXELS} are needed to read its colour")
     return pixels
@@ -46,29 +49,54 @@ def region_statistics(rgb: np.ndarray, mask: np.ndarray) -> np.ndarray:
     at LIGHTNESS_QUANTILES, a* and b* at CHROMA_QUANTILES. Finite for any finite or non-finite input."""
     pixels = region_pixels(rgb, mask)
     mean_lab = srgb_to_lab(pixels.mean(axis=0)).astype(np.float64)
-    lab = srgb_to_lab(pixels).astype(np.float64)
+    lab = lab_of_pixels(pixels)
     return np.concatenate([MEAN_WEIGHT * mean_lab, np.quantile(lab[:, 0], LIGHTNESS_QUANTILES),
                            np.quantile(lab[:, 1], CHROMA_QUANTILES), np.quantile(lab[:, 2], CHROMA_QUANTILES)])
+
+
+def lab_of_pixels(pixels: np.ndarray) -> np.ndarray:
+    """(N, 3) display pixels -> (N, 3) float64 CIELAB (srgb_to_lab, the same values), LAB_CHUNK pixels at a time: a
+    large region (the hair of a 64-megapixel portrait) makes no region-sized float64 temporaries."""
+    lab = np.empty((len(pixels), 3), np.float64)
+    for start in range(0, len(pixels), LAB_CHUNK):
+        lab[start:start + LAB_CHUNK] = srgb_to_lab(pixels[start:start + LAB_CHUNK])
+    return lab
 
 
 def skin_around(lips: np.ndarray) -> np.ndarray:
     """The skin beside, above and below the lips: (H, W) lips mask -> (H, W) bool, a box 1.3x the lips' width and as
     high as it is wide, centred on them, less the lips' own box grown by a tenth of their width (no teeth, no
     mouth). Clipped to the image; empty for an empty mask."""
-    lips = np.nan_to_num(np.asarray(lips, np.float32), nan=0.0) > 0.5
-    skin = np.zeros(lips.shape, bool)
-    if not lips.any():
-        return skin
-    rows, cols = np.nonzero(lips)
+    skin = np.zeros(np.shape(lips)[:2], bool)
+    found = skin_box(lips)
+    if found is not None:
+        (y0, y1, x0, x1), inside = found
+        skin[y0:y1, x0:x1] = inside
+    return skin
+
+
+def skin_box(lips: np.ndarray) -> tuple[tuple[int, int, int, int], np.ndarray] | None:
+    """skin_around without a whole-image mask: ((y0, y1, x0, x1) the rows and columns the skin spans, (y1 - y0,
+    x1 - x0) bool the skin inside them), or None for an empty mask or no skin. Per axis, so a 64-megapixel photo's
+    lips cost a few vectors, not whole-image grids."""
+    lips = np.asarray(lips)
+    lips = lips if lips.dtype == bool else np.asarray(lips, np.float32) > 0.5  # NaN is no lips
+    rows, cols = np.flatnonzero(lips.any(axis=1)), np.flatnonzero(lips.any(axis=0))
+    if not rows.size:
+        return None
     width = cols.max() + 1 - cols.min()
     centre_y, centre_x = (rows.min() + rows.max() + 1) / 2, (cols.min() + cols.max() + 1) / 2
-    y, x = np.mgrid[:lips.shape[0], :lips.shape[1]] + 0.5
-    skin[(np.abs(x - centre_x) < 0.65 * width) & (np.abs(y - centre_y) < 0.5 * width)] = True
+    y, x = np.arange(lips.shape[0]) + 0.5, np.arange(lips.shape[1]) + 0.5
     grow = 0.1 * width
-    lips_box = ((x > cols.min() - grow) & (x < cols.max() + 1 + grow) & (y > rows.min() - grow)
-                & (y < rows.max() + 1 + grow))
-    skin[lips_box] = False
-    return skin
+    in_rows = np.flatnonzero(np.abs(y - centre_y) < 0.5 * width)
+    in_cols = np.flatnonzero(np.abs(x - centre_x) < 0.65 * width)
+    if not in_rows.size or not in_cols.size:
+        return None
+    y0, y1, x0, x1 = in_rows[0], in_rows[-1] + 1, in_cols[0], in_cols[-1] + 1
+    y, x = y[y0:y1], x[x0:x1]
+    lips_rows = (y > rows.min() - grow) & (y < rows.max() + 1 + grow)
+    lips_cols = (x > cols.min() - grow) & (x < cols.max() + 1 + grow)
+    return (int(y0), int(y1), int(x0), int(x1)), ~(lips_rows[:, None] & lips_cols[None, :])
 
 
 def skin_colour(rgb: np.ndarray, lips: np.ndarray) -> np.ndarray | None:
@@ -76,10 +104,21 @@ def skin_colour(rgb: np.ndarray, lips: np.ndarray) -> np.ndarray | None:
     are in the image (a close crop)."""
     from .colour import srgb_to_linear
 
-    skin = skin_around(lips)
-    if skin.sum() < MIN_PIXELS:
+    pixels = _skin_pixels(rgb, lips)
+    return None if pixels is None else srgb_to_linear(pixels).mean(axis=0, dtype=np.float64)
+
+
+def _skin_pixels(rgb: np.ndarray, lips: np.ndarray) -> np.ndarray | None:
+    """region_pixels of the skin around the lips (skin_around), read inside the skin's box only; None where fewer
+    than MIN_PIXELS of it are in the image."""
+    found = skin_box(lips)
+    if found is None or found[1].sum() < MIN_PIXELS:
         return None
-    return srgb_to_linear(region_pixels(rgb, skin)).mean(axis=0, dtype=np.float64)
+    (y0, y1, x0, x1), skin = found
+    rgb = np.asarray(rgb)
+    if rgb.shape[:2] != np.shape(lips)[:2]:
+        raise VtoError(f"a region is an (H, W, 3) image and an (H, W) mask, got {rgb.shape} and {np.shape(lips)}")
+    return region_pixels(rgb[y0:y1, x0:x1], skin)
 
 
 def skin_light(rgb: np.ndarray, lips: np.ndarray) -> tuple[float, np.ndarray] | None:
@@ -87,9 +126,8 @@ def skin_light(rgb: np.ndarray, lips: np.ndarray) -> tuple[float, np.ndarray] | 
     than MIN_PIXELS of it are in the image (a close crop)."""
     from .colour import luminance, srgb_to_linear
 
-    skin = skin_around(lips)
-    if skin.sum() < MIN_PIXELS:
+    pixels = _skin_pixels(rgb, lips)
+    if pixels is None:
         return None
-    pixels = region_pixels(rgb, skin)
     return float(luminance(srgb_to_linear(pixels)).mean()), srgb_to_lab(pixels.mean(axis=0)).astype(np.float64)
 

@@ -75,6 +75,13 @@ def shard_range(n: int, shard: tuple[int, int]) -> range:
     return range(n * index // count, n * (index + 1) // count)
 
 
+def file_digest(path: str | os.PathLike) -> str:
+    """The first 16 hex digits of a file's SHA-256: what a manifest names an input file by."""
+    import hashlib
+
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+
+
 def write_manifest(root: Path, manifest: dict) -> None:
     """Write DIR/manifest.json atomically, or check that an existing one holds the same settings.
 

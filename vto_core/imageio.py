@@ -92,10 +92,12 @@ def orientation_of(path):
         image_input.close()
 
 
-def read_image(path, as_shown=True):
+def read_image(path, as_shown=True, stored=False):
     """Read the first subimage of `path` as (rgb (H,W,3) float32, alpha (H,W) float32 or None).
 
-    as_shown: turned as a viewer shows it (its EXIF/TIFF orientation applied, see `upright`); False: as stored."""
+    as_shown: turned as a viewer shows it (its EXIF/TIFF orientation applied, see `upright`); False: as stored.
+    stored: an 8- or 16-bit file comes back as its integers (uint8, uint16: a quarter or a half of float32's memory;
+    `as_float` turns them into exactly what stored=False gives); other files as float32 all the same."""
     import OpenImageIO as oiio
 
     path = os.fspath(path)
@@ -120,14 +122,15 @@ def read_image(path, as_shown=True):
             )
         # Integer formats are normalised to [0, 1] by OIIO's float conversion;
         # float formats come back as stored.
-        pixels = image_input.read_image(0, 0, 0, channel_count, "float")
+        kind = _STORED_INTEGERS.get(str(spec.format)) if stored and not spec.channelformats else None
+        pixels = image_input.read_image(0, 0, 0, channel_count, kind or "float")
         if pixels is None:
             reason = image_input.geterror() or oiio.geterror()
             raise VtoError(f"cannot read image {path}: {_one_line(reason)}")
     finally:
         image_input.close()
 
-    pixels = np.asarray(pixels, dtype=np.float32)
+    pixels = np.asarray(pixels, dtype=np.dtype(kind) if kind else np.float32)
     if channel_count in (1, 2):
         rgb = np.repeat(pixels[:, :, :1], 3, axis=2)
     else:
@@ -137,13 +140,51 @@ def read_image(path, as_shown=True):
     return rgb, alpha
 
 
+_STORED_INTEGERS = {"uint8": "uint8", "uint16": "uint16"}  # OIIO's format names -> read_image(stored=True)'s dtype
+ROWS_AT_ONCE = 256  # rows of a large image converted at a time, so that no whole-image temporary is made
+
+
+def float_table(dtype):
+    """(2^bits,) float32: what OpenImageIO's float conversion gives each value of an 8- or 16-bit integer type."""
+    import OpenImageIO as oiio
+
+    dtype = np.dtype(dtype)
+    cached = _FLOAT_TABLES.get(dtype.str)
+    if cached is None:
+        codes = np.arange(np.iinfo(dtype).max + 1, dtype=dtype)
+        buf = oiio.ImageBuf(oiio.ImageSpec(codes.size, 1, 1, dtype.name))
+        buf.set_pixels(oiio.ROI(0, codes.size, 0, 1, 0, 1, 0, 1), codes.reshape(1, -1, 1))
+        cached = np.ascontiguousarray(buf.get_pixels(oiio.FLOAT).reshape(-1), np.float32)
+        cached.flags.writeable = False
+        _FLOAT_TABLES[dtype.str] = cached
+    return cached
+
+
+_FLOAT_TABLES = {}
+
+
+def as_float(pixels):
+    """read_image(stored=True)'s pixels -> float32 exactly as read_image gives them (uint8 and uint16 through
+    OpenImageIO's own conversion, a few rows at a time); float pixels as float32 (no copy where they are already)."""
+    pixels = np.asarray(pixels)
+    if pixels.dtype not in (np.uint8, np.uint16):
+        return np.asarray(pixels, np.float32)
+    table = float_table(pixels.dtype)
+    out = np.empty(pixels.shape, np.float32)
+    for start in range(0, max(1, pixels.shape[0]), ROWS_AT_ONCE):
+        np.take(table, pixels[start:start + ROWS_AT_ONCE], out=out[start:start + ROWS_AT_ONCE])
+    return out
+
+
 def require_finite(image, what):
     """Raise VtoError naming `what` if `image` (H,W) or (H,W,C) holds any NaN or inf pixel."""
     image = np.asarray(image)
-    bad = ~np.isfinite(image)
-    if image.ndim == 3:
-        bad = bad.any(axis=2)
-    bad_pixel_count = int(np.count_nonzero(bad))
+    bad_pixel_count = 0
+    for start in range(0, max(1, image.shape[0] if image.ndim else 1), ROWS_AT_ONCE):  # no whole-image temporaries
+        bad = ~np.isfinite(image[start:start + ROWS_AT_ONCE] if image.ndim else image)
+        if image.ndim == 3:
+            bad = bad.any(axis=2)
+        bad_pixel_count += int(np.count_nonzero(bad))
     if bad_pixel_count:
         raise VtoError(f"{what} has {bad_pixel_count} non-finite (NaN or inf) pixel(s)")
 
@@ -169,15 +210,14 @@ def _validated_pixels(path, rgb, alpha, bits):
         rgb = rgb[:, :, np.newaxis]
     if rgb.ndim != 3 or rgb.shape[2] not in (1, 3) or rgb.shape[0] == 0 or rgb.shape[1] == 0:
         raise VtoError(f"cannot write image {path}: rgb has shape {rgb.shape}, expected (H,W,3) or (H,W)")
-    channels = [rgb]
+    pixels = rgb  # without alpha: the caller's pixels themselves, not a copy (a 64-megapixel photo is 768 MB)
     if alpha is not None:
         alpha = np.asarray(alpha, dtype=np.float32)
         if alpha.shape != rgb.shape[:2]:
             raise VtoError(
                 f"cannot write image {path}: alpha has shape {alpha.shape}, expected {rgb.shape[:2]}"
             )
-        channels.append(alpha[:, :, np.newaxis])
-    pixels = np.concatenate(channels, axis=2)
+        pixels = np.concatenate([rgb, alpha[:, :, np.newaxis]], axis=2)
 
     if bits in _NUMPY_INT_TYPE_BY_BITS:
         require_finite(pixels, f"image data for {path}")
@@ -191,6 +231,19 @@ def _quantised(pixels, bits):
         return np.ascontiguousarray(pixels, dtype=np.float32)
     max_code = np.iinfo(int_type).max
     return np.rint(np.clip(pixels, 0.0, 1.0) * max_code).astype(int_type)
+
+
+def _write_pixels(image_output, pixels, bits):
+    """Write float pixels (H,W,C) through an open ImageOutput as stored for `bits`; an integer file taller than
+    ROWS_AT_ONCE a few rows at a time, so no whole-image integer or float temporary is made. True where written."""
+    height = pixels.shape[0]
+    if bits not in _NUMPY_INT_TYPE_BY_BITS or height <= ROWS_AT_ONCE:
+        return image_output.write_image(_quantised(pixels, bits))
+    for start in range(0, height, ROWS_AT_ONCE):
+        end = min(height, start + ROWS_AT_ONCE)
+        if not image_output.write_scanlines(start, end, 0, _quantised(pixels[start:end], bits)):
+            return False
+    return True
 
 
 def write_image(path, rgb, alpha=None, bits=None, orientation=1):
@@ -231,7 +284,7 @@ def write_image(path, rgb, alpha=None, bits=None, orientation=1):
             raise VtoError(f"cannot write image {path}: {_one_line(oiio.geterror())}")
         if not image_output.open(temp_path, spec):
             raise VtoError(f"cannot write image {path}: {_one_line(image_output.geterror())}")
-        written = image_output.write_image(_quantised(pixels, bits))
+        written = _write_pixels(image_output, pixels, bits)
         closed = image_output.close()
         if not (written and closed):
             raise VtoError(f"cannot write image {path}: {_one_line(image_output.geterror())}")
@@ -244,6 +297,26 @@ def write_image(path, rgb, alpha=None, bits=None, orientation=1):
             os.remove(temp_path)
         raise
     return path
+
+
+def jpeg_round_trip(image, quality, folder):
+    """(H, W, 3) display in [0, 1] -> the same after a JPEG at `quality` (1-100, 4:2:0 as cameras write), float32;
+    the file lives in `folder` only while it is read back."""
+    import OpenImageIO as oiio
+
+    path = os.path.join(os.fspath(folder), f"round-trip-{os.getpid()}-{uuid.uuid4().hex[:8]}.jpg")
+    pixels = np.clip(np.nan_to_num(np.asarray(image, np.float32)) * 255 + 0.5, 0, 255).astype(np.uint8)
+    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], 3, oiio.UINT8)
+    spec.attribute("compression", f"jpeg:{int(quality)}")
+    output = oiio.ImageOutput.create(path)
+    try:
+        if output is None or not output.open(path, spec) or not output.write_image(pixels):
+            raise VtoError(f"cannot write a JPEG in {folder}: {_one_line(oiio.geterror())}")
+        output.close()
+        return read_image(path, as_shown=False)[0]
+    finally:
+        if os.path.exists(path):
+            os.remove(path)
 
 
 def resize(image, height, width):

@@ -92,7 +92,7 @@ def cmd_tryon(argv: list[str]) -> int:
     if not os.path.isfile(args.image):
         raise VtoError(f"no image at {args.image}")
     photo, _ = read_image(args.image)
-    image = tryon_lipstick(photo, values, crop=args.crop, samples=args.samples, seed=args.seed)
+    image = tryon_lipstick(photo, values, crop=args.crop, samples=args.samples, seed=args.seed, in_place=True)
     write_image(args.out, image)
     print(json.dumps({"out": args.out, "image": args.image, "size": list(image.shape[1::-1]), "params": values}))
     return 0
@@ -160,6 +160,9 @@ def cmd_dataset(argv: list[str]) -> int:
     parser.add_argument("--vary", default="", help="comma-separated unmodelled inputs to draw uniformly over their "
                                                     "ranges per look (e.g. gloss_roughness), so the encoder learns to "
                                                     "look past them")
+    parser.add_argument("--photos", default=None,
+                        help="lipstick: try each look on a portrait of this folder (its faces.json's train split "
+                             "where it has one) and write it as Match reads the photo, not on the default scene")
     parser.add_argument("--workers", type=int, default=1, help="Blender processes on this machine")
     parser.add_argument("--restart-every", type=int, default=500, help="samples per worker process before a restart")
     parser.add_argument("--worker", default=None, help=argparse.SUPPRESS)
@@ -188,7 +191,8 @@ def cmd_dataset(argv: list[str]) -> int:
     shard = parse_shard(args.shard) if args.shard else shard_from_env()
     job = DatasetJob(args.renderer, args.out, args.n, args.seed, args.res, args.samples, params, args.sensitivity,
                      args.uniform_ratio, args.source_folder, scene, args.lighting, not args.no_source,
-                     tuple(name for name in args.vary.split(",") if name), args.looks_per_source, args.masks)
+                     tuple(name for name in args.vary.split(",") if name), args.looks_per_source, args.masks,
+                     args.photos)
     indices = shard_range(job.n, shard)
     if args.worker is not None:  # one of run_workers' processes: its share of the shard, then exit
         run_in_process(job, worker_indices(indices, parse_shard(args.worker)), args.limit, quiet=True)

@@ -47,6 +47,7 @@ class DatasetJob:
     vary: tuple[str, ...] = ()  # unmodelled inputs drawn per look over their ranges: the encoder learns to look past
     looks_per_source: int = 1  # hair, default scene: consecutive looks share one source render (cached on disk)
     masks: bool = False  # lipstick, default scene: also write the lips mask (hair always writes its hair mask)
+    photos: str | None = None  # lipstick: try the looks on these portraits' lips (photo_looks) instead
     spec: RendererSpec = field(init=False)
 
     def __post_init__(self):
@@ -78,6 +79,16 @@ class DatasetJob:
             raise VtoError("--masks writes the default lips scene's lips mask (hair datasets always have theirs)")
         if self.sensitivity and not self.source_images:
             raise VtoError("--sensitivity renders are for the imitator, which needs the source images: drop --no-source")
+        if self.photos is not None:
+            from .photo_looks import training_faces
+
+            if (self.renderer != "lipstick" or self.scene is not None or self.sensitivity or self.masks
+                    or self.lighting is not None):
+                raise VtoError("--photos tries lipstick looks on portraits in their own light: not with --blend, "
+                               "--lighting, --sensitivity or --masks")
+            if not Path(self.photos).is_dir():
+                raise VtoError(f"--photos {self.photos} is not a folder")
+            training_faces(self.photos)  # refuses a folder with nothing to train on
         if self.renderer == "lipstick" and self.scene is None:
             from ..renderers.scene_lips import DEFAULT_LIGHTING
 
@@ -101,6 +112,14 @@ class DatasetJob:
             del settings["looks_per_source"]
         if not self.masks:  # likewise
             del settings["masks"]
+        del settings["photos"]
+        if self.photos is not None:  # the faces themselves, by name and content: a folder's path says little
+            from vto_core.dataset import file_digest
+
+            from .photo_looks import training_faces
+
+            settings["photos"] = {path.name: file_digest(path) for path in training_faces(self.photos)}
+            del settings["lighting"]
         images = "16-bit PNG, display sRGB (Standard view transform)"
         if self.scene is not None:  # a user's scene: its own settings where no flag overrode them, its own values
             scene = bpy.data.scenes[self.scene]
@@ -144,6 +163,11 @@ class SampleRenderer:
         self.sampler = ParamSampler(spec, preset_matrix(spec, load_presets(job.renderer)), job.uniform_ratio, job.seed)
         self.photos = None
         self.user_scene = None
+        self.photo_looks = None
+        if job.photos is not None:
+            from .photo_looks import PhotoLooks
+
+            self.photo_looks = PhotoLooks(job.photos, job.res, job.samples, job.seed)
         if job.renderer == "hair" and job.source_folder:
             from ..renderers.hair import photo_sources
 
@@ -171,7 +195,11 @@ class SampleRenderer:
         group = index // job.looks_per_source
         source = source_id(job.seed, group)
         cycles_seed = index if job.looks_per_source == 1 else group
-        if job.renderer == "lipstick":
+        notes = {}
+        if self.photo_looks is not None:
+            source_image, render, notes = self.photo_looks.look(index, values[0], job.source_images)
+            images, extra = [render], {}
+        elif job.renderer == "lipstick":
             source_image, images, extra = self._lipstick(source, cycles_seed, values)
         else:
             source_image, images, extra = self._hair(source, cycles_seed, values)
@@ -185,7 +213,7 @@ class SampleRenderer:
             for name, pixels in extra.items():
                 writer.image(name, pixels)
             record = {"index": index, "source": source, "cycles_seed": cycles_seed,
-                      "unit": unit.tolist(), "raw": spec.denormalise(unit).tolist(), "values": values[0]}
+                      "unit": unit.tolist(), "raw": spec.denormalise(unit).tolist(), "values": values[0], **notes}
             if job.sensitivity:
                 record["sensitivity_unit"] = [u.tolist() for u in variants[1:]]
             writer.params(record)

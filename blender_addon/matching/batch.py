@@ -4,7 +4,8 @@ OUT receives: estimates/<image>.json (one per photo, written atomically and reus
 model are unchanged), presets.json and presets.csv (the shipped presets' format: `vto render --params
 preset:NAME@OUT/presets.json` takes them), assets.blend with blender_assets.cats.txt (lipstick: one asset material per
 product with a rendered preview; hair has none, see blender_addon.datasets.assets), sheet.png (one row per product: its
-first photo | a render of its preset) and report.json (products, their photos, and every photo skipped with the reason).
+first photo | its preset tried on that photo's lips | a render of its preset) and report.json (products, their photos,
+and every photo skipped with the reason).
 
 The median is per parameter, in raw units; a wrapping parameter (hair hue) takes the circular median: the photo's
 value whose summed distance around the circle to the others is least.
@@ -30,7 +31,7 @@ from vto_core.imageio import write_image
 from vto_core.inference import EncoderSession
 from vto_core.specs import ParamSpec, RendererSpec
 
-from .match import photo_source
+from .match import photo_source, tryon_view
 from .photo_fit import fit_photo_fast, photo_values
 from .reference import at_size, read_reference
 
@@ -38,6 +39,9 @@ ESTIMATES = "estimates"
 READER = 3  # how photos are read (3: the light read from the skin and taken out, lips Fast the encoder): older
 # estimates are redone
 CHUNK = 32  # photos per encoder call
+TRYON_SAMPLES = 8  # Cycles samples of a try-on cell at most (as the panel's preview): one try-on per product row
+BLANK = 0.5  # the grey of a try-on cell where there is none (hair, or a photo without a face)
+NO_HAIR_TRYON = "hair has no try-on yet"
 
 
 def circular_median(values, low: float, high: float) -> float:
@@ -238,9 +242,37 @@ def render_products(renderer: str, presets: dict, products: dict[str, list[Path]
                          args.res, args.samples, args.seed) for name, values in presets.items()}
 
 
-def contact_sheet(path: Path, references: dict[str, np.ndarray], renders: dict[str, np.ndarray], res: int) -> str:
-    """One row per product: its first photo (resized to res x res) | the render of its preset."""
-    rows = [np.concatenate([at_size(references[name], res, res), renders[name]], axis=1) for name in renders]
+def sheet_cells(renderer: str, presets: dict, products: dict[str, list[Path]], args
+                ) -> tuple[dict[str, np.ndarray], dict[str, tuple[np.ndarray, np.ndarray]], dict[str, str]]:
+    """What the sheet shows of each product's first photo: ({product: the photo as the encoder read it}, {product:
+    (the photo around its lips, its preset tried on them)} (matching.match.tryon_view at --res px, at most
+    TRYON_SAMPLES samples), {product: why it has no try-on}). One photo is read at a time; hair, a photo with no
+    face, or a try-on that fails leaves a product without a try-on, never failing the batch."""
+    references, tryons, missing = {}, {}, {}
+    for name, paths in products.items():
+        reference = batch_reference(renderer, paths[0])
+        references[name] = reference.image
+        if renderer != "lipstick":
+            missing[name] = NO_HAIR_TRYON
+            continue
+        try:
+            tryons[name] = tryon_view(reference.whole, presets[name], args.res, min(args.samples, TRYON_SAMPLES),
+                                      args.seed)
+        except Exception as exc:  # VtoError 'no face found ...', or a render that failed: the sheet goes on
+            first = (str(exc).splitlines() or [""])[0]
+            missing[name] = first if isinstance(exc, VtoError) else f"{type(exc).__name__}: {first}"
+    return references, tryons, missing
+
+
+def contact_sheet(path: Path, references: dict[str, np.ndarray], renders: dict[str, np.ndarray], res: int,
+                  tryons: dict[str, tuple[np.ndarray, np.ndarray]] | None = None) -> str:
+    """One row per product: its first photo | its preset tried on it | the render of its preset, each res x res.
+    Where the product has a try-on (sheet_cells) the photo is shown around its lips as the try-on is (the two cells
+    differ only on the lips); else its reference resized, and the try-on cell is BLANK grey."""
+    tryons = tryons or {}
+    blank = np.full((res, res, 3), BLANK, np.float32)
+    rows = [np.concatenate([*(tryons[name] if name in tryons else (at_size(references[name], res, res), blank)),
+                            renders[name]], axis=1) for name in renders]
     return write_image(path, np.concatenate(rows, axis=0))
 
 
@@ -268,9 +300,14 @@ def cmd_batch(argv: list[str]) -> int:
     presets = {name: median_values(spec, [estimates[p.name] for p in paths]) for name, paths in products.items()}
     report["presets"] = write_presets(out, spec.renderer, presets)
     renders = render_products(spec.renderer, presets, products, args)
-    references = {name: batch_reference(spec.renderer, paths[0]).image for name, paths in products.items()}
-    report["sheet"] = contact_sheet(out / "sheet.png", references, renders, args.res)
+    references, tryons, no_tryon = sheet_cells(spec.renderer, presets, products, args)
+    for name, reason in no_tryon.items():
+        if reason != NO_HAIR_TRYON:
+            print(f"vto batch: {name}: no try-on on the sheet: {reason}", file=sys.stderr)
+    report["sheet"] = contact_sheet(out / "sheet.png", references, renders, args.res, tryons)
     report["sheet_rows"] = list(renders)
+    report["sheet_columns"] = ["photo", "try-on", "render"]
+    report["sheet_no_tryon"] = no_tryon
     if spec.renderer == "lipstick":
         from ..datasets.assets import write_library
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vto_core.errors import VtoError
-from vto_core.imageio import orientation_of, read_image, resize, upright
+from vto_core.imageio import as_float, orientation_of, read_image, resize, upright
 from vto_core.photo.framing import (MIN_SIZE, cut, cut_read, face_roll, lips_frame, lips_view, square_view, view_box,
                                     view_cut)
 from vto_core.photo.photo_light import light_of
@@ -44,7 +44,8 @@ def load_reference(image_path: str) -> np.ndarray:
 
     A few NaN or infinite pixels (an EXR from a bad render) are read as 0 or 1 with a warning; all of them is an error.
     The last file read is kept (by path, modification time and size), so a second Match on the same photo does not
-    decode it again; each call gets its own copy.
+    decode it again; each call gets its own copy. An 8- or 16-bit file is kept as its integers (a quarter or a half of
+    the float copy's memory: 192 MB for a 64-megapixel JPEG, where float32 takes 768 MB).
     """
     if not os.path.isfile(image_path):
         raise VtoError(f"no image at {image_path}")
@@ -52,20 +53,24 @@ def load_reference(image_path: str) -> np.ndarray:
     reference, bad = _decoded_reference(image_path, stat.st_mtime_ns, stat.st_size)
     if bad:
         warnings.warn(f"{image_path}: {bad} NaN or infinite pixel(s) read as 0 (NaN, -inf) or 1 (+inf)", stacklevel=2)
-    return reference.copy()
+    return reference.copy() if reference.dtype == np.float32 else as_float(reference)
 
 
 @functools.lru_cache(maxsize=1)
 def _decoded_reference(image_path: str, mtime_ns: int, size: int) -> tuple[np.ndarray, int]:
-    """load_reference's work for one version of a file: (the image, read-only; its count of non-finite pixels)."""
-    reference, _ = read_image(image_path)
+    """load_reference's work for one version of a file: (the image, read-only: an 8- or 16-bit file's integers, else
+    float32 cleaned; its count of non-finite pixels)."""
+    reference, _ = read_image(image_path, stored=True)
     if reference.shape[0] < MIN_SIZE or reference.shape[1] < MIN_SIZE:
         raise VtoError(f"{image_path}: image is {reference.shape[1]}x{reference.shape[0]}; at least {MIN_SIZE}x{MIN_SIZE} "
                        "is needed")
-    bad = int((~np.isfinite(reference)).any(axis=-1).sum())
-    if bad == reference.shape[0] * reference.shape[1]:
-        raise VtoError(f"{image_path}: every pixel is NaN or infinite; nothing to estimate from")
-    reference = np.clip(np.nan_to_num(reference, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+    bad = 0
+    if reference.dtype == np.float32:  # integers are finite and, as floats, in [0, 1]
+        bad = int((~np.isfinite(reference)).any(axis=-1).sum())
+        if bad == reference.shape[0] * reference.shape[1]:
+            raise VtoError(f"{image_path}: every pixel is NaN or infinite; nothing to estimate from")
+        np.nan_to_num(reference, copy=False, nan=0.0, posinf=1.0, neginf=0.0)  # the array read is this function's own
+        np.clip(reference, 0.0, 1.0, out=reference)
     reference.flags.writeable = False
     return reference, bad
 

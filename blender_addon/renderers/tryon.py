@@ -11,13 +11,16 @@ Shapes: images (H, W, 3) display sRGB in [0, 1]; frames n x n.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import bpy
 import numpy as np
 
 from vto_core.appearance import skin_colour
 from vto_core.colour import linear_to_srgb, srgb_to_linear
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
-from vto_core.photo.face_reader import apply_matrix, polygon_mask, sample_bilinear
+from vto_core.photo.face_reader import apply_matrix, clean_photo, polygon_mask, sample_bilinear
 from vto_core.photo.framing import lips_view, square_view, view_cut
 from vto_core.photo.lips_locator import LIP_INNER, LIP_OUTER, lips_mask
 from vto_core.photo.photo_light import light_of
@@ -53,56 +56,95 @@ def find_lips(photo: np.ndarray):
     return lips
 
 
-def product_ratio(frame: np.ndarray, points: np.ndarray, depth: np.ndarray | None, mask: np.ndarray, cast: np.ndarray,
-                  values: dict[str, float], samples: int, seed: int) -> np.ndarray:
-    """What the product does to the lips in an n x n `frame` (display): worn / bare (n, n, 3) linear, rendered at
-    most MAX_RENDER px; points (468, 2) and depth (468,) the face mesh in frame px, mask (n, n) the lips."""
-    size = frame.shape[0]
-    res = min(size, MAX_RENDER)
-    scale = res / size
-    scene = build_photo_scene()
-    vertices, quads, uvs = lips_mesh(points * scale, None if depth is None else depth * scale)
-    set_lips(scene, vertices, quads, uvs, res)
-    inside = mask > 0.5
-    albedo = srgb_to_linear(frame[inside]).mean(axis=0) / cast if inside.any() else np.full(3, 0.2)
-    skin = skin_colour(frame, mask)
-    set_light_and_lips(scene, cast, albedo, (albedo if skin is None else skin) / cast)
-    configure_cycles(scene, res, samples, seed)
-    renders = []
-    for opacity in (None, 0.0):
-        set_lipstick_values(scene, values if opacity is None else {**values, "opacity": opacity})
-        renders.append(render_passes(scene)["Combined"][..., :3])
-    ratio = worn_over_bare(renders[1], renders[0])
-    if res == size:
-        return ratio
-    centres = (np.arange(size) + 0.5) * scale
-    u, v = np.meshgrid(centres, centres)
-    return sample_bilinear(ratio, u, v).transpose(1, 2, 0)
+@dataclass
+class PhotoLips:
+    """A portrait's lips ready to render onto: found, framed as Match frames them at n x n px, and its light read."""
+
+    photo: np.ndarray  # (H, W, 3) display
+    lips: object  # vto_core.photo.lips_locator.LipsFound
+    cast: np.ndarray  # (3,) the photo's light colour, linear gains of mean 1
+    n: int
+    to_frame: np.ndarray  # (2, 3) photo px -> frame px
+    points: np.ndarray  # (468, 2) the face mesh in frame px
+    depth: np.ndarray | None  # (468,) in frame px, nearer lower
+    frame: np.ndarray  # (n, n, 3) display: what the frame sees of the photo
+    mask: np.ndarray  # (n, n) the lips in the frame
 
 
-def tryon_lipstick(photo: np.ndarray, values: dict[str, float], crop: int | None = None,
-                   samples: int = DEFAULT_SAMPLES, seed: int = 0) -> np.ndarray:
-    """R(X, g) on a real photo: (H, W, 3) display wearing the lipstick `values`, or, with `crop` = n, the lips
-    framed as Match frames them at n x n px. VtoError for a photo without a face, or lips too small."""
-    values = get_spec("lipstick").check_values(values)
-    photo = np.clip(np.nan_to_num(np.asarray(photo, np.float32)), 0.0, 1.0)
+def photo_lips(photo: np.ndarray, n: int | None = None) -> PhotoLips:
+    """The lips of the largest face of (H, W, 3) display, framed at n x n px (None: the frame's own size, at most
+    2 x MAX_RENDER). VtoError 'no face found ...' (find_lips)."""
+    photo = clean_photo(photo)  # no copy of a clean photo (a 64-megapixel one is 768 MB)
     lips = find_lips(photo)
-    cast = light_of(photo, lips.mask).cast
     view, size, _ = lips_view(lips)
-    n = crop or min(size, MAX_RENDER * 2)
+    n = n or min(size, MAX_RENDER * 2)
     view = view.copy()
     view[:, :2] *= size / n  # the same frame seen at n x n
     to_frame = np.linalg.inv(np.vstack([view, [0.0, 0.0, 1.0]]))[:2]
     points = apply_matrix(to_frame, lips.landmarks.astype(np.float64))
     photo_scale = np.sqrt(abs(np.linalg.det(view[:, :2])))  # photo px per frame px
     depth = None if lips.depth is None else lips.depth / photo_scale
-    frame = view_cut(photo, view, n)
-    frame_mask, _ = lips_mask(points[LIP_OUTER], points[LIP_INNER], n, n)
-    ratio = product_ratio(frame, points, depth, frame_mask, cast, values, samples, seed)
+    mask, _ = lips_mask(points[LIP_OUTER], points[LIP_INNER], n, n)
+    return PhotoLips(photo, lips, light_of(photo, lips.mask).cast, n, to_frame, points, depth,
+                     view_cut(photo, view, n), mask)
+
+
+def set_photo_lips(target: PhotoLips, samples: int, seed: int) -> bpy.types.Scene:
+    """The photo lips scene set to `target`'s lips, light and lip colour, rendering render_size(target) px."""
+    res = render_size(target)
+    scale = res / target.n
+    scene = build_photo_scene()
+    vertices, quads, uvs = lips_mesh(target.points * scale, None if target.depth is None else target.depth * scale)
+    set_lips(scene, vertices, quads, uvs, res)
+    inside = target.mask > 0.5
+    albedo = (srgb_to_linear(target.frame[inside]).mean(axis=0) / target.cast if inside.any() else np.full(3, 0.2))
+    skin = skin_colour(target.frame, target.mask)
+    set_light_and_lips(scene, target.cast, albedo, (albedo if skin is None else skin) / target.cast)
+    configure_cycles(scene, res, samples, seed)
+    return scene
+
+
+def render_size(target: PhotoLips) -> int:
+    """px a side of the render of `target`'s frame: its n, at most MAX_RENDER."""
+    return min(target.n, MAX_RENDER)
+
+
+def render_look(scene: bpy.types.Scene, values: dict[str, float]) -> np.ndarray:
+    """The photo lips scene (set_photo_lips) wearing `values`: (res, res, 3) linear."""
+    set_lipstick_values(scene, values)
+    return render_passes(scene)["Combined"][..., :3]
+
+
+def product_ratio(target: PhotoLips, values: dict[str, float], samples: int, seed: int,
+                  bare: np.ndarray | None = None, bare_seed: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """What the product does to `target`'s lips: (worn / bare (n, n, 3) linear, the bare render (res, res, 3)). The
+    frame is rendered at render_size px, the smooth ratio sampled up to n; `bare`: a bare render of this target kept
+    from before (None: rendered now, with `bare_seed`, or None: `seed`)."""
+    scene = set_photo_lips(target, samples, seed if bare_seed is None else bare_seed)
+    if bare is None:
+        bare = render_look(scene, {**values, "opacity": 0.0})
+    scene.cycles.seed = seed
+    ratio = worn_over_bare(bare, render_look(scene, values))
+    res, size = ratio.shape[0], target.n
+    if res == size:
+        return ratio, bare
+    centres = (np.arange(size) + 0.5) * res / size
+    u, v = np.meshgrid(centres, centres)
+    return sample_bilinear(ratio, u, v).transpose(1, 2, 0), bare
+
+
+def tryon_lipstick(photo: np.ndarray, values: dict[str, float], crop: int | None = None,
+                   samples: int = DEFAULT_SAMPLES, seed: int = 0, in_place: bool = False) -> np.ndarray:
+    """R(X, g) on a real photo: (H, W, 3) display wearing the lipstick `values`, or, with `crop` = n, the lips
+    framed as Match frames them at n x n px. VtoError for a photo without a face, or lips too small. in_place: a
+    clean float32 photo (in [0, 1], finite) is drawn on itself, not on a copy (a 64-megapixel photo is 778 MB)."""
+    values = get_spec("lipstick").check_values(values)
+    target = photo_lips(photo, crop)
+    ratio, _ = product_ratio(target, values, samples, seed)
     if crop:
-        worn = composite(srgb_to_linear(frame), ratio, feathered(frame_mask), values["opacity"])
+        worn = composite(srgb_to_linear(target.frame), ratio, feathered(target.mask), values["opacity"])
         return np.clip(linear_to_srgb(worn), 0.0, 1.0).astype(np.float32)
-    return on_photo(photo, lips, to_frame, ratio, values["opacity"])
+    return on_photo(target.photo, target.lips, target.to_frame, ratio, values["opacity"], in_place)
 
 
 def around_lips(lips, size: int) -> np.ndarray:
@@ -114,9 +156,10 @@ def around_lips(lips, size: int) -> np.ndarray:
     return view
 
 
-def on_photo(photo: np.ndarray, lips, to_frame: np.ndarray, ratio: np.ndarray, opacity: float) -> np.ndarray:
+def on_photo(photo: np.ndarray, lips, to_frame: np.ndarray, ratio: np.ndarray, opacity: float,
+             in_place: bool = False) -> np.ndarray:
     """The photo with the frame's product ratio (n, n, 3) applied inside its lips' soft mask (to_frame (2, 3): photo
-    pixels to the frame's); every other pixel is the photo's own, unchanged."""
+    pixels to the frame's); every other pixel is the photo's own, unchanged. in_place: drawn on `photo` itself."""
     x, y, w, h = lips.box
     height, width = photo.shape[:2]
     x0, y0 = max(0, x - EDGE), max(0, y - EDGE)
@@ -129,6 +172,6 @@ def on_photo(photo: np.ndarray, lips, to_frame: np.ndarray, ratio: np.ndarray, o
     local = sample_bilinear(ratio, u, v).transpose(1, 2, 0)
     soft = feathered(mask)
     worn = composite(srgb_to_linear(photo[y0:y1, x0:x1]), local, soft, opacity)
-    out = photo.copy()
+    out = photo if in_place else photo.copy()
     out[y0:y1, x0:x1][soft > 0] = np.clip(linear_to_srgb(worn), 0.0, 1.0)[soft > 0]
     return out

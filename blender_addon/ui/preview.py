@@ -7,12 +7,11 @@ from __future__ import annotations
 import numpy as np
 
 from vto_core.errors import VtoError
-from vto_core.photo.framing import view_cut
 from vto_core.specs import get_spec
 
 from ..matching.apply import lipstick_nodes
+from ..matching.match import tryon_view
 from ..renderers.lipstick import node_values
-from ..renderers.tryon import around_lips, find_lips, tryon_lipstick
 from .thumbnail import preview_icon, reference_pixels
 
 SIZE = 96  # px: each half of the preview (the photo, the try-on)
@@ -28,10 +27,10 @@ def material_values(material) -> dict[str, float]:
     return get_spec("lipstick").full_values(node_values(nodes[0]))
 
 
-def compose(photo: np.ndarray, worn: np.ndarray, lips) -> np.ndarray:
-    """(SIZE, 2 SIZE, 3): the photo around its lips | the same part of the try-on."""
-    view = around_lips(lips, SIZE)
-    return np.concatenate([view_cut(image, view, SIZE) for image in (photo, worn)], axis=1)
+def compose(photo: np.ndarray, values: dict[str, float]) -> np.ndarray:
+    """(SIZE, 2 SIZE, 3): the photo around its lips | the same part wearing `values` (matching.match.tryon_view:
+    drawn on that part only, so a 64-megapixel photo costs no whole copy)."""
+    return np.concatenate(tryon_view(photo, values, SIZE, SAMPLES, 0), axis=1)
 
 
 def refresh(material, photo: np.ndarray | None = None) -> tuple[int, str]:
@@ -39,8 +38,7 @@ def refresh(material, photo: np.ndarray | None = None) -> tuple[int, str]:
     the one line saying why there is none)."""
     try:
         photo = reference_pixels(material.vto_match) if photo is None else photo
-        lips = find_lips(photo)
-        picture = compose(photo, tryon_lipstick(photo, material_values(material), samples=SAMPLES), lips)
+        picture = compose(photo, material_values(material))
     except Exception as exc:  # VtoError, or a render that failed: the panel says why, Match is not undone
         text = str(exc) if isinstance(exc, VtoError) else f"{type(exc).__name__}: {(str(exc).splitlines() or [''])[0]}"
         _made[material.name] = (0, text, None)

@@ -444,3 +444,28 @@ def test_validation_error_takes_hue_on_the_circle():
     batches = [{"g": torch.tensor([[0.98, 0.98]]), "render": torch.zeros(1, 3, 8, 8)}]
     assert parameter_error(Says(), batches, "cpu", [True, False]) == pytest.approx((0.04**2 + 0.96**2) / 2, abs=1e-6)
     assert parameter_error(Says(), batches, "cpu") == pytest.approx(0.96**2, abs=1e-6)
+
+
+def test_the_colour_loss_reads_the_shipped_colour_imitator_as_onnxruntime_does():
+    """training.export.onnx_colour_net: the same statistics as the ONNX file; the loss is 0 at the truth, grows away
+    from it, and sends gradients to the estimate only."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from training.export import onnx_colour_net
+    from training.losses import colour_loss
+    from vto_core.colour_imitator import ColourImitator
+
+    path = Path(__file__).resolve().parents[2] / "blender_addon" / "models" / "lipstick_colour.onnx"
+    imitator = ColourImitator(path)
+    net = onnx_colour_net(str(path), imitator.spec)
+    unit = np.random.default_rng(3).uniform(size=(5, imitator.spec.size)).astype(np.float32)
+    assert np.abs(net(torch.from_numpy(unit)).numpy() - imitator.statistics(unit)).max() < 1e-3
+    truth = torch.from_numpy(unit)
+    guess = (truth + 0.2).clamp(0, 1).requires_grad_(True)
+    assert float(colour_loss(net, truth, truth)) == 0.0
+    loss = colour_loss(net, truth, guess)
+    loss.backward()
+    assert float(loss) > 0.01 and torch.isfinite(guess.grad).all() and guess.grad.abs().sum() > 0
+    assert not any(p.requires_grad for p in net.parameters())

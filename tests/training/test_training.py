@@ -340,3 +340,41 @@ def test_mouth_views_train_a_lipstick_encoder_and_are_refused_for_hair(lipstick_
     with pytest.raises(VtoError, match="mouth_views paints teeth over lips: a hair dataset has none"):
         train_encoder(str(hair), None, str(tmp_path / "hair_run"), config)
     assert not (tmp_path / "hair_run").exists()
+
+
+def test_a_run_starts_from_an_exported_encoder_and_refuses_another_network(colour_dataset, tmp_path):
+    """init=FILE.onnx: step 0 reads as the file does (fine-tuning); a network of another shape is refused."""
+    config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=3", "loss=graphics", "augment=true"])
+    run = train_encoder(str(colour_dataset), None, str(tmp_path / "first"), config)
+    export_encoder(str(run.path), str(tmp_path / "first.onnx"))
+    started = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=1", "loss=graphics", "lr=1e-12",
+                                                                 f"init={tmp_path / 'first.onnx'}"])
+    state = train_encoder(str(colour_dataset), None, str(tmp_path / "tuned"), started).load_checkpoint()
+    from training.networks import build
+
+    encoder = build("encoder", state["model_args"])
+    encoder.load_state_dict(state["model"])
+    encoder.eval()
+    images = np.random.default_rng(2).random((2, 3, 16, 16), dtype=np.float32)
+    with torch.no_grad():
+        direct, mirrored = (encoder(torch.from_numpy(x)).numpy() for x in (images, images[..., ::-1].copy()))
+    assert np.abs(EncoderSession(tmp_path / "first.onnx").predict_unit_nchw(images)
+                  - 0.5 * (direct + mirrored)).max() <= 1e-4
+    wider = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=1", "loss=graphics", "width=4",
+                                                               f"init={tmp_path / 'first.onnx'}"])
+    with pytest.raises(VtoError, match="another network"):
+        train_encoder(str(colour_dataset), None, str(tmp_path / "wider"), wider)
+    assert not (tmp_path / "wider").exists()
+
+
+def test_a_colour_loss_without_its_imitator_or_with_another_spec_is_refused_before_a_run_folder(colour_dataset,
+                                                                                                tmp_path):
+    from pathlib import Path
+
+    shipped = Path(__file__).resolve().parents[2] / "blender_addon" / "models" / "lipstick_colour.onnx"
+    for extra, message in ((["lambda_colour=1"], "needs colour_imitator"),
+                           (["lambda_colour=1", f"colour_imitator={shipped}"], "not a colour imitator of the data")):
+        config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=1", "loss=graphics", *extra])
+        with pytest.raises(VtoError, match=message):
+            train_encoder(str(colour_dataset), None, str(tmp_path / "run"), config)
+        assert not (tmp_path / "run").exists()

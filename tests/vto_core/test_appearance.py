@@ -62,3 +62,33 @@ def test_the_skin_colour_is_the_linear_mean_beside_the_lips_and_none_without_ski
     assert skin_colour(rgb, np.ones((40, 40))) is None  # lips fill the picture: a close crop shows no skin
     assert skin_colour(rgb, np.zeros((40, 40))) is None
     assert np.isfinite(skin_colour(np.full((40, 40, 3), np.nan), lips)).all()
+
+
+def test_the_skin_around_the_lips_is_read_in_its_own_box_as_the_whole_image_definition_gives_it():
+    """skin_around per axis (a 64-megapixel photo's lips cost vectors, not whole-image grids) against its definition on
+    the whole pixel grid, and skin_colour from the box's pixels against the mean over that whole-image mask."""
+    from vto_core.appearance import skin_around
+
+    rng = np.random.default_rng(5)
+    for _ in range(60):
+        height, width = (int(v) for v in rng.integers(6, 70, 2))
+        lips = np.zeros((height, width), np.float32)
+        y, x = int(rng.integers(0, height)), int(rng.integers(0, width))
+        lips[y:y + int(rng.integers(1, 15)), x:x + int(rng.integers(1, 25))] = 1.0
+        lips[rng.random((height, width)) < 0.01] = np.nan  # NaN is no lips
+        inside = np.nan_to_num(lips) > 0.5
+        rows, cols = np.nonzero(inside)
+        wide = cols.max() + 1 - cols.min()
+        cy, cx = (rows.min() + rows.max() + 1) / 2, (cols.min() + cols.max() + 1) / 2
+        yy, xx = np.mgrid[:height, :width] + 0.5
+        grow = 0.1 * wide
+        expected = ((np.abs(xx - cx) < 0.65 * wide) & (np.abs(yy - cy) < 0.5 * wide)
+                    & ~((xx > cols.min() - grow) & (xx < cols.max() + 1 + grow) & (yy > rows.min() - grow)
+                        & (yy < rows.max() + 1 + grow)))
+        assert np.array_equal(skin_around(lips), expected)
+        rgb = rng.random((height, width, 3)).astype(np.float32)
+        colour = skin_colour(rgb, lips)
+        if expected.sum() < 4:
+            assert colour is None
+        else:
+            assert np.array_equal(colour, srgb_to_linear(rgb[expected]).mean(axis=0, dtype=np.float64))

@@ -418,3 +418,45 @@ def test_photos_saved_as_other_programs_save_them(tmp_path, form):
         return
     read, _ = read_image(path)
     assert read.shape == rgb.shape and np.abs(read - rgb).mean() < 0.02
+
+
+def test_a_jpeg_round_trip_loses_more_at_lower_quality_and_leaves_no_file(tmp_path):
+    from vto_core.imageio import jpeg_round_trip
+
+    y, x = np.mgrid[:40, :48] / 8.0
+    image = np.stack([0.5 + 0.3 * np.sin(x + y), 0.5 + 0.3 * np.sin(1.3 * x), 0.4 + 0.2 * np.cos(y)], -1)
+    fine, coarse = (np.abs(jpeg_round_trip(image, q, tmp_path) - image).mean() for q in (95, 20))
+    assert 0 < fine < 0.01 < coarse and fine < coarse / 3
+    assert jpeg_round_trip(image, 95, tmp_path).shape == image.shape and not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("name, bits", [("tall.png", 8), ("tall.png", 16), ("tall.tif", 8), ("tall.jpg", 8)])
+def test_a_tall_image_is_written_a_few_rows_at_a_time_byte_for_byte_as_in_one_write(tmp_path, name, bits):
+    """Integer files taller than ROWS_AT_ONCE are quantised and written in parts (no whole-image copies: a 64-megapixel
+    photo is 778 MB a float copy); the file is the one a single write makes."""
+    from vto_core.imageio import ROWS_AT_ONCE
+
+    rgb = _random_rgb(3, (2 * ROWS_AT_ONCE + 37, 41, 3)) * 1.2 - 0.1
+    write_image(tmp_path / name, rgb, bits=bits)
+    codes = np.rint(np.clip(rgb, 0.0, 1.0) * (255 if bits == 8 else 65535)).astype(np.uint8 if bits == 8 else np.uint16)
+    spec = oiio.ImageSpec(41, rgb.shape[0], 3, "uint8" if bits == 8 else "uint16")
+    spec.channelnames = ("R", "G", "B")
+    spec.attribute("oiio:UnassociatedAlpha", 1)
+    once = tmp_path / f"once{os.path.splitext(name)[1]}"
+    output = oiio.ImageOutput.create(str(once))
+    assert output.open(str(once), spec) and output.write_image(codes) and output.close()
+    assert (tmp_path / name).read_bytes() == once.read_bytes()
+
+
+@pytest.mark.parametrize("name, bits, dtype", [("a.png", 8, np.uint8), ("a.png", 16, np.uint16), ("a.jpg", 8, np.uint8),
+                                               ("a.exr", "half", np.float32), ("a.tif", "float", np.float32)])
+def test_stored_integers_turn_into_exactly_the_floats_read_image_gives(tmp_path, name, bits, dtype):
+    """read_image(stored=True) keeps an 8- or 16-bit file's integers (a quarter or a half of float32's memory); as_float
+    gives the very floats read_image gives. Float files come back as float32 either way."""
+    from vto_core.imageio import as_float
+
+    write_image(tmp_path / name, _random_rgb(4, (300, 23, 3)), bits=bits, orientation=6)
+    stored, _ = read_image(tmp_path / name, stored=True)
+    floats, _ = read_image(tmp_path / name)
+    assert stored.dtype == dtype and stored.shape == floats.shape == (23, 300, 3)  # turned as shown
+    assert as_float(stored).dtype == np.float32 and np.array_equal(as_float(stored), floats)

@@ -31,8 +31,12 @@ def cut(image: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
 
 
 def cut_read(whole: np.ndarray, box: tuple[int, int, int, int], light) -> np.ndarray:
-    """The part `box` of `whole` (H, W, 3), with the photo's `light` taken out (None: as it is)."""
-    return cut(whole, box) if light is None else neutral_photo(cut(whole, box), light)
+    """The part `box` of `whole` (H, W, 3), with the photo's `light` taken out (None: as it is); a new array either
+    way. A light read from the skin is taken out of the part where it lies (no contiguous copy first)."""
+    if light is None or light.read_from != "skin":
+        return cut(whole, box) if light is None else neutral_photo(cut(whole, box), light)
+    x, y, w, h = box
+    return neutral_photo(whole[y:y + h, x:x + w], light)
 
 
 def lips_frame(mask: np.ndarray) -> tuple[int, int, int, int]:

@@ -53,6 +53,7 @@ MAX_GAIN = 8.0  # no estimated gain goes beyond this either way (a skin of one f
 # can be read from it (a black-and-white photo): the light is kept, not read as a cast.
 NO_CHROMA_LOG = 0.02
 TABLE_SIZE = 65536
+TABLE_PIXELS_AT_ONCE = 1 << 20  # relit reads a large image's curves this many pixels at a time
 TABLE_LINEAR = srgb_to_linear(np.linspace(0.0, 1.0, TABLE_SIZE, dtype=np.float32))  # the table's inputs, linear
 NEUTRAL_KELVIN = 6504.0  # the black body nearest D65, the white of sRGB: what a daylight-balanced photo shows neutral
 
@@ -138,13 +139,18 @@ def relit(image: np.ndarray, gains: np.ndarray) -> np.ndarray:
     are clipped first. An image with more values than a table of TABLE_SIZE points per channel reads each channel's
     curve from that table at the nearest point (within 1e-4 of the exact curve; a 1-megapixel photo in ~40 ms, where
     the exact powers took ~90 ms); a smaller one (the framed lips) is computed exactly, cheaper than the table."""
-    image = np.clip(np.nan_to_num(np.asarray(image, np.float32), nan=0.0), 0.0, 1.0)
+    image = np.asarray(image)
     gains = np.asarray(gains, np.float32)
     if image.size <= 3 * TABLE_SIZE:
+        image = np.clip(np.nan_to_num(np.asarray(image, np.float32), nan=0.0), 0.0, 1.0)
         return np.clip(linear_to_srgb(np.clip(srgb_to_linear(image) * gains, 0.0, 1.0)), 0.0, 1.0)
     curves = np.clip(linear_to_srgb(np.clip(TABLE_LINEAR[:, None] * gains, 0.0, 1.0)), 0.0, 1.0)  # (TABLE_SIZE, 3)
-    index = (image * (TABLE_SIZE - 1) + 0.5).astype(np.int32)
-    return curves[index, np.arange(3)].astype(np.float32)
+    out = np.empty(image.shape, np.float32)
+    step = max(1, 3 * TABLE_PIXELS_AT_ONCE // max(1, image[0].size))  # rows (or pixels) at a time: no image-sized
+    for start in range(0, len(image), step):  # temporaries (a 64-megapixel photo's hair is hundreds of MB a copy)
+        part = np.clip(np.nan_to_num(np.asarray(image[start:start + step], np.float32), nan=0.0), 0.0, 1.0)
+        out[start:start + step] = curves[(part * (TABLE_SIZE - 1) + 0.5).astype(np.int32), np.arange(3)]
+    return out
 
 
 def neutral_photo(image: np.ndarray, light: PhotoLight) -> np.ndarray:

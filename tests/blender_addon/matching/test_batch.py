@@ -11,7 +11,8 @@ import pytest
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 pytest.importorskip("bpy")
 
-from blender_addon.matching.batch import circular_median, csv_grouping, group_products, median_values  # noqa: E402
+from blender_addon.matching.batch import (BLANK, circular_median, csv_grouping, group_products,  # noqa: E402
+                                          median_values)
 from vto_core import cli  # noqa: E402
 from vto_core.imageio import read_image, write_image  # noqa: E402
 from vto_core.inference import EncoderSession  # noqa: E402
@@ -91,7 +92,46 @@ def test_report_lists_the_unusable_files_and_the_products(batch_out):
 
 def test_contact_sheet_has_one_row_per_product(batch_out):
     sheet, _ = read_image(batch_out / "sheet.png")
-    assert sheet.shape == (2 * RES, 2 * RES, 3) and sheet.std() > 0.01
+    assert sheet.shape == (2 * RES, 3 * RES, 3) and sheet.std() > 0.01  # photo | try-on | render
+    report = json.loads((batch_out / "report.json").read_text())
+    assert report["sheet_columns"] == ["photo", "try-on", "render"]
+    # close-ups of lips (renders): no face to try the preset on, so the try-on column is the grey blank
+    assert sorted(report["sheet_no_tryon"]) == ["bare-nude", "classic-red"]
+    assert all(reason.startswith("no face found") for reason in report["sheet_no_tryon"].values())
+    assert np.all(np.abs(sheet[:, RES:2 * RES] - BLANK) < 1 / 255)
+
+
+def test_contact_sheet_tries_the_preset_on_a_portraits_lips_and_leaves_a_grey_blank_without_a_face(photos, tmp_path):
+    """A portrait's row: its photo around the lips | the preset tried on them (the same pixels off the lips); a close-up
+    of lips (no face) in the same batch: the grey blank, and the batch still writes its sheet."""
+    import skimage.data
+
+    from blender_addon.renderers.tryon import around_lips, find_lips
+    from vto_core.photo.framing import view_cut
+    from vto_core.photo.tryon import feathered
+
+    folder, res = tmp_path / "photos", 64
+    folder.mkdir()
+    portrait = skimage.data.astronaut().astype(np.float32) / 255  # 512 px: lips 48 px wide, wide enough to try on
+    write_image(folder / "a_portrait.png", portrait)
+    (folder / "b_closeup.png").write_bytes((photos / "classic-red_s1.png").read_bytes())
+    out = tmp_path / "out"
+    assert cli.run(["batch", "--model", MODEL, "--images", str(folder), "--out", str(out), "--res", str(res),
+                    "--samples", str(SAMPLES), "--quiet"]) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["sheet_rows"] == ["a_portrait", "b_closeup"] and list(report["sheet_no_tryon"]) == ["b_closeup"]
+    sheet, _ = read_image(out / "sheet.png")
+    assert sheet.shape == (2 * res, 3 * res, 3)
+    photo, worn = sheet[:res, :res], sheet[:res, res:2 * res]
+    lips = find_lips(portrait)
+    view = around_lips(lips, res)
+    assert np.abs(photo - view_cut(portrait, view, res)).max() < 1 / 255  # the photo framed as the previews frame it
+    reach = view_cut(feathered(lips.mask), view, res)[..., 0] > 0  # where the try-on may draw
+    inside = view_cut(lips.mask, view, res)[..., 0] > 0.5
+    changed = np.abs(worn - photo).max(axis=-1) > 1.5 / 255
+    assert not changed[~reach].any()  # off the lips: the photo's pixels
+    assert changed[inside].mean() > 0.5 and np.abs(worn - photo)[inside].mean() > 0.02  # on them: the preset
+    assert np.all(np.abs(sheet[res:, res:2 * res] - BLANK) < 1 / 255)  # no face: the grey blank
 
 
 def test_asset_library_has_one_marked_material_per_product_with_preview_and_catalog(batch_out):
@@ -232,7 +272,8 @@ def test_hair_batch_takes_circular_medians_and_skips_the_asset_library(tmp_path)
     written = load_presets("hair", out / "presets.json")["copper"]
     assert written["hue"] == circular_median([e["hue"] for e in estimates], 0.0, 1.0)
     assert written == pytest.approx(median_values(spec, estimates))
-    assert read_image(out / "sheet.png")[0].shape == (2 * RES, 2 * RES, 3)
+    assert read_image(out / "sheet.png")[0].shape == (2 * RES, 3 * RES, 3)  # a try-on column, grey for hair
+    assert report["sheet_no_tryon"] == {"copper": "hair has no try-on yet", "teal": "hair has no try-on yet"}
 
 
 def test_hair_batch_finds_the_hair_in_portraits_and_a_mask_beside_a_photo_wins(tmp_path):

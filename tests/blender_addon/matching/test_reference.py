@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vto_core.errors import VtoError
-from vto_core.imageio import write_image
+from vto_core.imageio import read_image, write_image
 from vto_core.photo.framing import lips_frame
 
 
@@ -77,7 +77,7 @@ def test_a_photo_read_again_is_decoded_once_until_its_file_changes(tmp_path, mon
     write_image(path, image)
     decoded = []
     read = module.read_image
-    monkeypatch.setattr(module, "read_image", lambda name: decoded.append(name) or read(name))
+    monkeypatch.setattr(module, "read_image", lambda name, **options: decoded.append(name) or read(name, **options))
     with pytest.warns(UserWarning, match="1 NaN"):
         first = module.load_reference(str(path))
     first[:] = 1.0  # the caller's own copy
@@ -86,6 +86,23 @@ def test_a_photo_read_again_is_decoded_once_until_its_file_changes(tmp_path, mon
     assert len(decoded) == 1 and second[0, 0].tolist() == [0, 0, 0] and np.allclose(second[1:], 0.25)
     write_image(path, np.full((24, 20, 3), 0.75, np.float32))  # a new version of the file
     assert np.allclose(module.load_reference(str(path)), 0.75) and len(decoded) == 2
+
+
+@pytest.mark.parametrize("name, bits", [("photo.jpg", 8), ("photo.png", 16)])
+def test_an_8_or_16_bit_photo_is_kept_as_its_integers_and_read_exactly_as_read_image_reads_it(name, bits, tmp_path):
+    """The cache holds an 8-bit photo's bytes (a quarter of float32's memory: 194 MB, not 778, for 64 megapixels);
+    each call gets the very floats read_image gives."""
+    from blender_addon.matching import reference as module
+
+    path = tmp_path / name
+    write_image(path, np.random.default_rng(3).random((40, 30, 3)).astype(np.float32), bits=bits)
+    stat = path.stat()
+    cached, bad = module._decoded_reference(str(path), stat.st_mtime_ns, stat.st_size)
+    assert cached.dtype == (np.uint8 if bits == 8 else np.uint16) and bad == 0 and not cached.flags.writeable
+    first, second = module.load_reference(str(path)), module.load_reference(str(path))
+    assert first.dtype == np.float32 and np.array_equal(first, read_image(path)[0]) and first is not second
+    first[:] = 0.0  # the caller's own copy
+    assert np.array_equal(second, read_image(path)[0])
 
 
 def test_the_photos_light_is_taken_out_so_a_re_lit_portrait_reads_nearly_as_the_original():

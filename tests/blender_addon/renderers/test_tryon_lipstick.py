@@ -113,3 +113,10 @@ def test_bad_input_is_one_line_exit_2_and_nothing_written(case, message, astrona
                     "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0] and not out.exists()
+
+
+def test_in_place_draws_on_the_photo_itself_as_the_copy_would(astronaut):
+    copied = tryon_lipstick(astronaut, PRESETS["Classic Red"], samples=SAMPLES)
+    mine = astronaut.copy()
+    drawn = tryon_lipstick(mine, PRESETS["Classic Red"], samples=SAMPLES, in_place=True)
+    assert drawn is mine and np.array_equal(drawn, copied) and not np.array_equal(drawn, astronaut)

@@ -127,3 +127,23 @@ def test_a_grey_skin_reads_no_light_and_changes_nothing():
     image = np.random.default_rng(1).random((4, 5, 3)).astype(np.float32)
     assert np.array_equal(neutral_photo(image, light), image)
     assert light_from_skin(np.array([0.2, 0.21, 0.2])).read_from == "skin"  # 5 % apart is a colour
+
+
+def test_a_large_photo_is_re_lit_a_few_rows_at_a_time_as_in_one_pass():
+    """The table path reads a large image in parts (no image-sized temporaries): the same values as one pass, for a
+    photo (H, W, 3), a part of one (a view) and a list of pixels (N, 3)."""
+    from vto_core.colour import linear_to_srgb
+    from vto_core.photo.photo_light import TABLE_LINEAR, TABLE_PIXELS_AT_ONCE, TABLE_SIZE
+
+    rng = np.random.default_rng(8)
+    photo = (rng.random((2 * TABLE_PIXELS_AT_ONCE // 700 + 3, 700, 3)) * 1.2 - 0.1).astype(np.float32)
+    photo[5, 7] = (np.nan, np.inf, -np.inf)
+    gains = kelvin_gains(3200, 0.4)
+    curves = np.clip(linear_to_srgb(np.clip(TABLE_LINEAR[:, None] * gains.astype(np.float32), 0.0, 1.0)), 0.0, 1.0)
+
+    def one_pass(image):
+        image = np.clip(np.nan_to_num(np.asarray(image, np.float32), nan=0.0), 0.0, 1.0)
+        return curves[(image * (TABLE_SIZE - 1) + 0.5).astype(np.int32), np.arange(3)]
+
+    for image in (photo, photo[10:, 50:650], photo.reshape(-1, 3)):
+        assert np.array_equal(relit(image, gains), one_pass(image))
