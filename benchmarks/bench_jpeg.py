@@ -22,20 +22,11 @@ SETTINGS = ((90, 1), (70, 1), (50, 1), (30, 1), (70, 4), (50, 4), (30, 4))  # (J
 
 def jpeg_view(image: np.ndarray, quality: int, factor: int, folder: Path) -> np.ndarray:
     """image (H, W, 3) in [0, 1] -> the same size after a JPEG round trip at `factor` times its size."""
-    import OpenImageIO as oiio
-
-    from vto_core.imageio import read_image, resize
+    from vto_core.imageio import jpeg_round_trip, resize
 
     height, width = image.shape[:2]
     big = resize(image, height * factor, width * factor) if factor > 1 else image
-    path = str(folder / "view.jpg")
-    spec = oiio.ImageSpec(big.shape[1], big.shape[0], 3, oiio.UINT8)
-    spec.attribute("compression", f"jpeg:{quality}")
-    out = oiio.ImageOutput.create(path)
-    out.open(path, spec)
-    out.write_image(np.clip(big * 255 + 0.5, 0, 255).astype(np.uint8))
-    out.close()
-    back = read_image(path)[0]
+    back = jpeg_round_trip(big, quality, folder)
     return resize(back, height, width) if factor > 1 else back
 
 
