@@ -300,8 +300,8 @@ def sweep(models: dict[str, Path], work: Path, renders: Renders) -> str:
 def picture(models: dict[str, Path], faces: int, out: Path) -> str:
     """Part (d): per held-out face, its photo around the lips | each model's Fast tried on it | each estimate on the
     default lips (source 0)."""
-    from blender_addon.matching.match import tryon_view
     from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.renderers.tryon import tryon_view
     from vto_core.imageio import read_image, write_image
 
     size, rows = 128, []

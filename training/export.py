@@ -61,17 +61,21 @@ def load_encoder_runs(run_paths: list[str]) -> list[dict]:
     return checkpoints
 
 
-def onnx_encoder_weights(path: str, encoder: torch.nn.Module, spec: RendererSpec) -> dict[str, torch.Tensor]:
-    """The weights of an exported encoder (`vto export`) as `encoder`'s state dict: what fine-tuning starts from.
-    VtoError where the file is for another spec or another network (its tensors' names or shapes differ)."""
+def onnx_tensors(path: str) -> dict[str, torch.Tensor]:
+    """An exported model's stored tensors (its initializers) by name."""
     import onnx
     from onnx import numpy_helper
 
+    return {t.name: torch.from_numpy(numpy_helper.to_array(t).copy()) for t in onnx.load(path).graph.initializer}
+
+
+def onnx_encoder_weights(path: str, encoder: torch.nn.Module, spec: RendererSpec) -> dict[str, torch.Tensor]:
+    """The weights of an exported encoder (`vto export`) as `encoder`'s state dict: what fine-tuning starts from.
+    VtoError where the file is for another spec or another network (its tensors' names or shapes differ)."""
     EncoderSession(path, expected_spec=spec)  # refuses a file that is not an encoder, or one of another spec
-    stored = {}
-    for tensor in onnx.load(path).graph.initializer:
-        name = tensor.name.split("encoders.0.", 1)[-1].split("encoder.", 1)[-1]  # MirrorAveraged / Averaged wrappers
-        stored[name] = torch.from_numpy(numpy_helper.to_array(tensor).copy())
+    # the encoder's own names, without the MirrorAveraged / Averaged wrappers' prefixes
+    stored = {name.split("encoders.0.", 1)[-1].split("encoder.", 1)[-1]: tensor
+              for name, tensor in onnx_tensors(path).items()}
     state = {}
     for name, current in encoder.state_dict().items():
         if name.endswith("num_batches_tracked"):
@@ -87,9 +91,6 @@ def onnx_encoder_weights(path: str, encoder: torch.nn.Module, spec: RendererSpec
 def onnx_colour_net(path: str, spec: RendererSpec) -> torch.nn.Module:
     """An exported colour imitator (`vto train colour`) as a frozen torch ColourNet for the colour loss. VtoError
     for another spec, or a skin-conditioned one (it reads the skin as well as the parameters)."""
-    import onnx
-    from onnx import numpy_helper
-
     from vto_core.colour_imitator import ColourImitator
 
     from .train_colour import ColourNet
@@ -97,7 +98,7 @@ def onnx_colour_net(path: str, spec: RendererSpec) -> torch.nn.Module:
     imitator = ColourImitator(path)  # refuses a file that is not a colour imitator
     if not imitator.spec.same_as(spec) or imitator.typical_skin is not None:
         raise VtoError(f"{path} is not a colour imitator of the data's spec that reads the parameters alone")
-    stored = {t.name: torch.from_numpy(numpy_helper.to_array(t).copy()) for t in onnx.load(path).graph.initializer}
+    stored = onnx_tensors(path)
     net = ColourNet(spec.size, stored["body.6.bias"].numel(), stored["body.0.bias"].numel(), stored["mean"].numpy(),
                     stored["scale"].numpy())
     net.load_state_dict({name: stored[name] for name in net.state_dict()})

@@ -31,7 +31,8 @@ from vto_core.imageio import write_image
 from vto_core.inference import EncoderSession
 from vto_core.specs import ParamSpec, RendererSpec
 
-from .match import photo_source, tryon_view
+from ..renderers.tryon import tryon_view
+from .match import photo_source
 from .photo_fit import fit_photo_fast, photo_values
 from .reference import at_size, read_reference
 
@@ -245,7 +246,7 @@ def render_products(renderer: str, presets: dict, products: dict[str, list[Path]
 def sheet_cells(renderer: str, presets: dict, products: dict[str, list[Path]], args
                 ) -> tuple[dict[str, np.ndarray], dict[str, tuple[np.ndarray, np.ndarray]], dict[str, str]]:
     """What the sheet shows of each product's first photo: ({product: the photo as the encoder read it}, {product:
-    (the photo around its lips, its preset tried on them)} (matching.match.tryon_view at --res px, at most
+    (the photo around its lips, its preset tried on them)} (renderers.tryon.tryon_view at --res px, at most
     TRYON_SAMPLES samples), {product: why it has no try-on}). One photo is read at a time; hair, a photo with no
     face, or a try-on that fails leaves a product without a try-on, never failing the batch."""
     references, tryons, missing = {}, {}, {}

@@ -312,6 +312,7 @@ def preview(result: dict, image_path: str, samples: int, seed: int) -> np.ndarra
     """(PREVIEW_SIZE, 3 PREVIEW_SIZE, 3): the photo around its lips | the estimate tried on it | the estimate on the
     default lips (source 0); VtoError for hair, or a photo without a face to try it on."""
     from ..renderers.lipstick import render_lipstick
+    from ..renderers.tryon import tryon_view
     from .reference import load_reference
 
     if result["renderer"] != "lipstick":
@@ -319,42 +320,6 @@ def preview(result: dict, image_path: str, samples: int, seed: int) -> np.ndarra
     panels = list(tryon_view(load_reference(image_path), result["params"], PREVIEW_SIZE, samples, seed))
     panels.append(render_lipstick(result["params"], 0, PREVIEW_SIZE, samples, seed))
     return np.concatenate(panels, axis=1)
-
-
-def tryon_view(photo: np.ndarray, values: dict[str, float], size: int, samples: int, seed: int
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """What the previews show of a lipstick tried on a portrait (H, W, 3): (the photo around its lips, the same
-    square wearing `values`), each (size, size, 3), framed by blender_addon.renderers.tryon.around_lips.
-
-    The same try-on as renderers.tryon.tryon_lipstick (the lips found, framed, rendered bare and worn), drawn
-    (on_photo) on the part of the photo the square shows, not on a whole copy of it: a 64-megapixel portrait costs
-    its own pixels and no more. VtoError 'no face found ...' where it has no face, or its lips are too small."""
-    import dataclasses
-
-    from vto_core.photo.framing import view_box, view_cut
-
-    from ..renderers.tryon import EDGE, around_lips, on_photo, photo_lips, product_ratio
-
-    values = get_spec("lipstick").check_values(values)
-    target = photo_lips(photo)
-    ratio, _ = product_ratio(target, values, samples, seed)
-    view = around_lips(target.lips, size)
-    height, width = target.photo.shape[:2]
-    x, y, w, h = view_box(view, size, (height, width))
-    lx, ly, lw, lh = target.lips.box
-    # the part of the photo that view_cut reads (a pixel more each way) and on_photo draws on (EDGE around the lips)
-    x0, y0 = max(0, min(x - 1, lx - EDGE)), max(0, min(y - 1, ly - EDGE))
-    x1, y1 = min(width, max(x + w + 1, lx + lw + EDGE)), min(height, max(y + h + 1, ly + lh + EDGE))
-    offset = np.array([x0, y0], np.float64)
-    lips = dataclasses.replace(target.lips, box=(lx - x0, ly - y0, lw, lh),
-                               outer=np.asarray(target.lips.outer, np.float64) - offset,
-                               inner=np.asarray(target.lips.inner, np.float64) - offset)
-    to_frame = target.to_frame.copy()
-    to_frame[:, 2] += to_frame[:, :2] @ offset  # part pixels -> frame pixels
-    worn = on_photo(target.photo[y0:y1, x0:x1], lips, to_frame, ratio, values["opacity"])
-    shifted = view.copy()
-    shifted[:, 2] -= offset
-    return view_cut(target.photo, view, size), view_cut(worn, shifted, size)
 
 
 def parse_crop(text: str | None) -> tuple[float, ...] | None:

@@ -21,7 +21,7 @@ from vto_core.colour import linear_to_srgb, srgb_to_linear
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.photo.face_reader import apply_matrix, clean_photo, polygon_mask, sample_bilinear
-from vto_core.photo.framing import lips_view, square_view, view_cut
+from vto_core.photo.framing import lips_view, square_view, view_box, view_cut
 from vto_core.photo.lips_locator import LIP_INNER, LIP_OUTER, lips_mask
 from vto_core.photo.photo_light import light_of
 from vto_core.photo.tryon import composite, feathered, lips_mesh, worn_over_bare
@@ -157,9 +157,11 @@ def around_lips(lips, size: int) -> np.ndarray:
 
 
 def on_photo(photo: np.ndarray, lips, to_frame: np.ndarray, ratio: np.ndarray, opacity: float,
-             in_place: bool = False) -> np.ndarray:
+             in_place: bool = False, window: tuple[int, int, int, int] | None = None) -> np.ndarray:
     """The photo with the frame's product ratio (n, n, 3) applied inside its lips' soft mask (to_frame (2, 3): photo
-    pixels to the frame's); every other pixel is the photo's own, unchanged. in_place: drawn on `photo` itself."""
+    pixels to the frame's); every other pixel is the photo's own, unchanged. in_place: drawn on `photo` itself.
+    window (x0, y0, x1, y1): only that part of the photo, drawn on a copy of it (it holds the lips' box and EDGE px
+    around it): a 64-megapixel portrait costs its part, not a whole copy."""
     x, y, w, h = lips.box
     height, width = photo.shape[:2]
     x0, y0 = max(0, x - EDGE), max(0, y - EDGE)
@@ -172,6 +174,32 @@ def on_photo(photo: np.ndarray, lips, to_frame: np.ndarray, ratio: np.ndarray, o
     local = sample_bilinear(ratio, u, v).transpose(1, 2, 0)
     soft = feathered(mask)
     worn = composite(srgb_to_linear(photo[y0:y1, x0:x1]), local, soft, opacity)
-    out = photo if in_place else photo.copy()
-    out[y0:y1, x0:x1][soft > 0] = np.clip(linear_to_srgb(worn), 0.0, 1.0)[soft > 0]
+    if window is None:
+        out, (left, top) = (photo if in_place else photo.copy()), (0, 0)
+    else:
+        left, top, right, bottom = window
+        out = photo[top:bottom, left:right].copy()
+    out[y0 - top:y1 - top, x0 - left:x1 - left][soft > 0] = np.clip(linear_to_srgb(worn), 0.0, 1.0)[soft > 0]
     return out
+
+
+def tryon_view(photo: np.ndarray, values: dict[str, float], size: int, samples: int, seed: int
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """What the previews show of a lipstick tried on a portrait (H, W, 3): (the photo around its lips, the same
+    square wearing `values`), each (size, size, 3), framed by around_lips: tryon_lipstick's try-on, drawn only on
+    the part of the photo the square shows. VtoError 'no face found ...' where it has no face, or its lips are too
+    small."""
+    values = get_spec("lipstick").check_values(values)
+    target = photo_lips(photo)
+    ratio, _ = product_ratio(target, values, samples, seed)
+    view = around_lips(target.lips, size)
+    height, width = target.photo.shape[:2]
+    x, y, w, h = view_box(view, size, (height, width))
+    lx, ly, lw, lh = target.lips.box
+    # the part of the photo that view_cut reads (a pixel more each way) and on_photo draws on (EDGE around the lips)
+    x0, y0 = max(0, min(x - 1, lx - EDGE)), max(0, min(y - 1, ly - EDGE))
+    x1, y1 = min(width, max(x + w + 1, lx + lw + EDGE)), min(height, max(y + h + 1, ly + lh + EDGE))
+    worn = on_photo(target.photo, target.lips, target.to_frame, ratio, values["opacity"], window=(x0, y0, x1, y1))
+    shifted = view.copy()
+    shifted[:, 2] -= (x0, y0)
+    return view_cut(target.photo, view, size), view_cut(worn, shifted, size)

@@ -10,8 +10,8 @@ from vto_core.errors import VtoError
 from vto_core.specs import get_spec
 
 from ..matching.apply import lipstick_nodes
-from ..matching.match import tryon_view
 from ..renderers.lipstick import node_values
+from ..renderers.tryon import tryon_view
 from .thumbnail import preview_icon, reference_pixels
 
 SIZE = 96  # px: each half of the preview (the photo, the try-on)
@@ -28,7 +28,7 @@ def material_values(material) -> dict[str, float]:
 
 
 def compose(photo: np.ndarray, values: dict[str, float]) -> np.ndarray:
-    """(SIZE, 2 SIZE, 3): the photo around its lips | the same part wearing `values` (matching.match.tryon_view:
+    """(SIZE, 2 SIZE, 3): the photo around its lips | the same part wearing `values` (renderers.tryon.tryon_view:
     drawn on that part only, so a 64-megapixel photo costs no whole copy)."""
     return np.concatenate(tryon_view(photo, values, SIZE, SAMPLES, 0), axis=1)
 

@@ -26,6 +26,17 @@ TINY_ENCODER = ["width=8", "n_layers=2", "batch_size=16", "perceptual=ssim_l1", 
                 "val_fraction=0.2"]
 
 
+def mirror_readings(state: dict, images: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A checkpoint's encoder read on (N, 3, H, W) images and on their left-right mirrors: (direct, mirrored)."""
+    from training.networks import build
+
+    encoder = build("encoder", state["model_args"])
+    encoder.load_state_dict(state["model"])
+    encoder.eval()
+    with torch.no_grad():
+        return tuple(encoder(torch.from_numpy(x)).numpy() for x in (images, images[..., ::-1].copy()))
+
+
 def imitator_config(*extra):
     return resolve_config(ImitatorConfig, None, TINY_IMITATOR + list(extra))
 
@@ -157,14 +168,8 @@ def test_a_batch_norm_encoder_trains_and_exports_mirror_averaged_with_its_runnin
 
     metadata = {p.key: p.value for p in onnx.load(str(tmp_path / "bn.onnx")).metadata_props}
     assert metadata["vto.mirror_averaged"] == "true"
-    from training.networks import build
-
-    encoder = build("encoder", state["model_args"])
-    encoder.load_state_dict(state["model"])
-    encoder.eval()
     images = np.random.default_rng(1).random((3, 3, 16, 16), dtype=np.float32)
-    with torch.no_grad():
-        direct, mirrored = (encoder(torch.from_numpy(x)).numpy() for x in (images, images[..., ::-1].copy()))
+    direct, mirrored = mirror_readings(state, images)
     got = EncoderSession(tmp_path / "bn.onnx").predict_unit_nchw(images)
     assert np.abs(got - 0.5 * (direct + mirrored)).max() <= 1e-4 and np.abs(direct - mirrored).max() > 1e-3
     single = export_encoder(str(run.path), str(tmp_path / "single.onnx"), mirror=False)  # vto export --single-view
@@ -350,14 +355,8 @@ def test_a_run_starts_from_an_exported_encoder_and_refuses_another_network(colou
     started = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=1", "loss=graphics", "lr=1e-12",
                                                                  f"init={tmp_path / 'first.onnx'}"])
     state = train_encoder(str(colour_dataset), None, str(tmp_path / "tuned"), started).load_checkpoint()
-    from training.networks import build
-
-    encoder = build("encoder", state["model_args"])
-    encoder.load_state_dict(state["model"])
-    encoder.eval()
     images = np.random.default_rng(2).random((2, 3, 16, 16), dtype=np.float32)
-    with torch.no_grad():
-        direct, mirrored = (encoder(torch.from_numpy(x)).numpy() for x in (images, images[..., ::-1].copy()))
+    direct, mirrored = mirror_readings(state, images)
     assert np.abs(EncoderSession(tmp_path / "first.onnx").predict_unit_nchw(images)
                   - 0.5 * (direct + mirrored)).max() <= 1e-4
     wider = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=1", "loss=graphics", "width=4",

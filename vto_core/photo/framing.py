@@ -33,10 +33,11 @@ def cut(image: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
 def cut_read(whole: np.ndarray, box: tuple[int, int, int, int], light) -> np.ndarray:
     """The part `box` of `whole` (H, W, 3), with the photo's `light` taken out (None: as it is); a new array either
     way. A light read from the skin is taken out of the part where it lies (no contiguous copy first)."""
-    if light is None or light.read_from != "skin":
-        return cut(whole, box) if light is None else neutral_photo(cut(whole, box), light)
+    if light is None:
+        return cut(whole, box)
     x, y, w, h = box
-    return neutral_photo(whole[y:y + h, x:x + w], light)
+    part = whole[y:y + h, x:x + w] if light.read_from == "skin" else cut(whole, box)  # relit writes a new array
+    return neutral_photo(part, light)
 
 
 def lips_frame(mask: np.ndarray) -> tuple[int, int, int, int]:

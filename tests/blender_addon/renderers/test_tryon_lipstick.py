@@ -120,3 +120,14 @@ def test_in_place_draws_on_the_photo_itself_as_the_copy_would(astronaut):
     mine = astronaut.copy()
     drawn = tryon_lipstick(mine, PRESETS["Classic Red"], samples=SAMPLES, in_place=True)
     assert drawn is mine and np.array_equal(drawn, copied) and not np.array_equal(drawn, astronaut)
+
+
+def test_the_previews_view_is_the_whole_photo_try_on_framed_around_the_lips(astronaut):
+    """tryon_view draws on the part of the photo it shows: the pixels of the whole photo tried on, then cut."""
+    from blender_addon.renderers.tryon import around_lips, tryon_view
+
+    shown, worn = tryon_view(astronaut, PRESETS["Classic Red"], 96, SAMPLES, 0)
+    view = around_lips(find_lips(astronaut), 96)
+    whole = tryon_lipstick(astronaut, PRESETS["Classic Red"], samples=SAMPLES)
+    assert np.array_equal(shown, view_cut(astronaut, view, 96))
+    assert np.abs(worn - view_cut(whole, view, 96)).max() < 1e-6 and np.abs(worn - shown).max() > 0.05
