@@ -33,9 +33,9 @@ MIN_FACE_SCORE = 0.75
 ROI_SCALE = 1.5  # the mesh reads the detection box enlarged this much, made square on its longer side
 RIGHT_EYE_CORNER, LEFT_EYE_CORNER = 33, 263  # mesh landmarks: the outer eye corners, image left then right
 RIGHT_MOUTH_CORNER, LEFT_MOUTH_CORNER = 61, 291  # the mouth's corners, image left then right (upright)
-# Quarter and half turns (radians, clockwise) the detector also looks through when the upright pass finds no face: a
-# photo on its side or upside down, which BlazeFace, trained on faces near upright, does not see.
-TURNS = (math.pi / 2, -math.pi / 2, math.pi)
+# np.rot90's quarter turns (anticlockwise) of a photo read again when it shows no face upright, or one upside down: a
+# photo on its side or upside down, which BlazeFace, trained on faces near upright, does not see (or sees in part).
+QUARTER_TURNS = (1, 2, 3)
 REFINE_PASSES = 3  # mesh passes on the region the last landmarks give, while the roll still moves by ...
 SETTLED_ROLL = math.radians(5)  # ... more than this (a face turned far from the detector's view settles in 2-3)
 # The mesh's face logit (before its sigmoid) under which a reading may be upside down: on the 18 benchmark portraits a
@@ -256,6 +256,25 @@ def roll_of(landmarks: np.ndarray) -> float:
     return math.atan2(float(direction[1]), float(direction[0]))
 
 
+def face_size(landmarks: np.ndarray) -> float:
+    """A face's size in pixels from its (468, 2) landmarks, the same at any roll: the root of the landmarks' spread
+    (the square root of their covariance's determinant, square-rooted)."""
+    return float(np.linalg.det(np.cov(landmarks.astype(np.float64), rowvar=False))) ** 0.25
+
+
+def turned_back(face: FaceRead, quarter_turns: int, shape: tuple[int, int]) -> FaceRead:
+    """A face read in np.rot90(image, quarter_turns) -> the same face in the image of (height, width) `shape`."""
+    height, width = shape
+    back = {1: lambda p: np.stack([width - p[:, 1], p[:, 0]], 1),
+            2: lambda p: np.stack([width - p[:, 0], height - p[:, 1]], 1),
+            3: lambda p: np.stack([p[:, 1], height - p[:, 0]], 1)}[quarter_turns % 4]
+    x, y, w, h = face.box
+    corners = back(np.array([[x, y], [x + w, y + h]], np.float64))
+    low, high = corners.min(axis=0), corners.max(axis=0)
+    return FaceRead(back(face.landmarks.astype(np.float64)).astype(np.float32), face.score, face.faces,
+                    (float(low[0]), float(low[1]), float(high[0] - low[0]), float(high[1] - low[1])), face.depth)
+
+
 def turn_between(a: float, b: float) -> float:
     """a - b in radians, wrapped into [-pi, pi)."""
     return (a - b + math.pi) % (2 * math.pi) - math.pi
@@ -384,49 +403,64 @@ class FaceReader:
         """(H, W, 3) display sRGB (any size; NaN, inf and HDR values are cleaned; (H, W), (H, W, 4) and integer
         pixels taken too) -> the largest face the mesh accepts, or None.
 
-        The detector runs on the whole image, and again on overlapping squares when that finds no face or only a small
-        one, and through the image turned a quarter and a half turn when neither finds a face the mesh keeps. The mesh
-        checks each detection (largest first) and reads the largest face it accepts, then again on the region its
-        landmarks give until the face's roll settles (FaceReader.settled), so a face reads alike at any roll."""
+        The image is read as it stands (read_view), and again turned a quarter and a half turn when that finds no face
+        the mesh keeps, or only a face it had to turn over (an upside-down photo, whose faces the detector, trained on
+        faces near upright, finds only in part); the surest reading is kept, and among equals the one whose view saw
+        the face nearest upright."""
         image = as_rgb(image)
-        height, width = image.shape[:2]
-        detections = self.detect(image)
-        faces = self.accepted_faces(image, detections)
-        if max(height, width) >= MIN_TILED_SIDE and (not faces or faces[0][0].side < SMALL_FACE * max(height, width)):
-            # No face, or a small one: a group or full-length photo, whose other faces the whole-image pass misses.
-            tiled = self.accepted_faces(image, self.detect_tiles(image, detections))
-            faces = tiled if len(tiled) >= len(faces) else faces
-        readings = [self.settled(image, faces, 0.0)] if faces else []
-        if not readings or not readings[0][1]:
-            # No face upright, or one the mesh does not keep on a second look: a face far turned.
-            for angle in TURNS:
-                turned = square_matrix(np.array([width / 2, height / 2]), max(height, width), angle, DETECTOR_SIZE)
-                found = self.accepted_faces(image, self.detect(image, turned))
-                readings += [self.settled(image, found, angle)] if found else []
+        readings = [reading for reading in [self.read_view(image)] if reading is not None]
+        if not readings or not readings[0][1] or readings[0][2]:
+            for quarter_turns in QUARTER_TURNS:
+                reading = self.read_view(np.rot90(image, quarter_turns), tiles=bool(readings))
+                if reading is not None:
+                    readings.append((turned_back(reading[0], quarter_turns, image.shape[:2]),) + reading[1:])
         kept = [reading for reading in readings if reading[1]] or readings
         if not kept:
             return None
-        # The surest reading; among equals, the one whose view saw the face nearest upright.
-        return max(kept, key=lambda r: (round(r[0].score, 2), -abs(turn_between(roll_of(r[0].landmarks), r[2]))))[0]
+        return max(kept, key=lambda r: (round(r[0].score, 2), -r[3]))[0]
 
-    def settled(self, image: np.ndarray, faces: list[tuple[Detection, np.ndarray, float]], view: float
-                ) -> tuple[FaceRead, bool, float]:
-        """The largest of `faces` (accepted_faces, seen through a view turned by `view` rad) read again on the
-        region its landmarks give until its roll settles, and turned over where the mesh is unsure (an upside-down
-        face seen upright): (the face, whether the mesh kept it on the second look, view)."""
+    def read_view(self, image: np.ndarray, tiles: bool = True) -> tuple[FaceRead, bool, bool, float] | None:
+        """The largest face of (H, W, 3) as it stands, or None: (the face, whether the mesh kept it on a second look,
+        whether it was turned over, its roll's distance from upright in radians).
+
+        The detector runs on the whole image, and again on overlapping squares when that finds no face or only a small
+        one (where `tiles`: a turned view looks over squares only for an upside-down face's neighbours, since a photo
+        with no face would cost 13 detector runs a view). The mesh checks each detection and reads the largest face it
+        accepts (by its landmarks, which a tilt leaves as they are, unlike the detector's upright box), then again on
+        the region its landmarks give until the face's roll settles (FaceReader.settled), so a face reads alike at any
+        roll."""
+        height, width = image.shape[:2]
+        detections = self.detect(image)
+        faces = self.accepted_faces(image, detections)
+        largest = max((detection.side for detection, _, _ in faces), default=0.0)
+        if tiles and max(height, width) >= MIN_TILED_SIDE and largest < SMALL_FACE * max(height, width):
+            # No face, or a small one: a group or full-length photo, whose other faces the whole-image pass misses.
+            tiled = self.accepted_faces(image, self.detect_tiles(image, detections))
+            faces = tiled if len(tiled) >= len(faces) else faces
+        if not faces:
+            return None
+        faces.sort(key=lambda face: -face_size(face[1][:, :2]))
+        return self.settled(image, faces)
+
+    def settled(self, image: np.ndarray, faces: list[tuple[Detection, np.ndarray, float]]
+                ) -> tuple[FaceRead, bool, bool, float]:
+        """The first of `faces` (accepted_faces) read again on the region its landmarks give until its roll settles,
+        and turned over where the mesh is unsure (an upside-down face seen upright): (the face, whether the mesh kept
+        it on the second look, whether it was turned over, its roll's distance from upright)."""
         detection, landmarks, logit = faces[0]
-        kept = True
+        kept, over = True, False
         if self.refine:
             landmarks, logit, kept = self.settle(image, landmarks, logit)
             if logit < SURE_FACE_LOGIT:
                 centre, side, angle = landmarks_region(landmarks[:, :2])
-                over, over_logit = self.mesh_read(image, centre, side, angle + math.pi)
-                if over_logit > logit:
-                    landmarks, logit, kept = self.settle(image, over, over_logit)
+                turned, turned_logit = self.mesh_read(image, centre, side, angle + math.pi)
+                if turned_logit > logit:
+                    (landmarks, logit, kept), over = self.settle(image, turned, turned_logit), True
         xmin, ymin, xmax, ymax = (float(v) for v in detection.box)
         box = (xmin, ymin, xmax - xmin, ymax - ymin)
         score = float(sigmoid(np.float64(logit)))
-        return FaceRead(landmarks[:, :2], score, len(faces), box, landmarks[:, 2]), kept, view
+        face = FaceRead(landmarks[:, :2], score, len(faces), box, landmarks[:, 2])
+        return face, kept, over, abs(roll_of(landmarks[:, :2]))
 
     def settle(self, image: np.ndarray, landmarks: np.ndarray, logit: float) -> tuple[np.ndarray, float, bool]:
         """(468, 3) landmarks (face logit `logit`) read again on the region they give, until the roll moves less than

@@ -36,7 +36,6 @@ BROWS = [70, 63, 105, 66, 107, 336, 296, 334, 293, 300]  # the eyebrows' upper e
 # The head's region, in face heights (forehead landmark to chin) up and down and face widths to each side of the
 # face's centre: long hair falls past the chin to the shoulders.
 REGION_UP, REGION_DOWN, REGION_SIDE = 1.0, 1.4, 1.6
-UPRIGHT_ROLL = math.radians(5)  # a head rolled more than this is shown to the person model turned upright
 WORK_FACE_HEIGHT = 56  # px per face height where the hair is found
 # The seed: above the forehead landmark (which sits 0.1-0.25 face heights below the hairline) by this many face
 # heights, within this many face widths of the face's centre line.
@@ -71,6 +70,8 @@ LAB_FLOOR = np.diag([4.0, 1.0, 1.0])  # variance floor of each colour model (L*,
 # must still take in the same hair in shade, whose colour differs more than any seed shows.
 HAIR_SPREAD = 0.35
 GROW_ROUNDS = 3  # hair models refitted on the hair found, then the hair found again
+TO_IMAGE_ROWS = 256  # photo rows the hair's mask is drawn in at a time
+TO_IMAGE_UPSAMPLE = 4  # the work grid's score is resized up to this many times before each photo pixel takes its nearest
 
 
 @dataclass
@@ -137,7 +138,8 @@ class HairLocator:
         person = frame.sample_person(self.person(image, frame.segmenter_matrix()))
         lab = srgb_to_lab(rgb).astype(np.float64)
         oval = frame.polygon(face.landmarks[FACE_OVAL])
-        models = colour_models(lab, oval & ~frame.above_brows(), person, frame.clothes())
+        models = colour_models(lab, oval & ~frame.above_brows(), np.where(frame.inside, person, np.nan),
+                               frame.clothes())
         seeds = frame.seeds(oval, person >= PERSON, models["skin"].distance(lab) > SKIN_LIKE if "skin" in models
                             else np.ones_like(oval))
         hair, seed, fringe = hair_seeds(lab, seeds, models)
@@ -202,8 +204,8 @@ def hair_seeds(lab: np.ndarray, seeds: list[Seed], models: dict[str, Gaussian]
 
 
 class HeadFrame:
-    """The head's region of a photo and its work grid: an axis-aligned box around the face, sampled at
-    WORK_FACE_HEIGHT px per face height."""
+    """The head's region of a photo and its work grid: a rectangle around the face, along the face's own axes (so a
+    tilted head is worked on as an upright one), sampled at WORK_FACE_HEIGHT px per face height."""
 
     def __init__(self, landmarks: np.ndarray, height: int, width: int):
         landmarks = landmarks.astype(np.float64)
@@ -214,57 +216,70 @@ class HeadFrame:
         self.right = np.array([-self.up[1], self.up[0]])  # image right when the face is upright
         self.face_width = max(float(np.linalg.norm(landmarks[LEFT_CHEEK] - landmarks[RIGHT_CHEEK])), 1.0)
         self.centre = (top + chin) / 2
-        corners = [self.centre + self.up * (up * self.face_height) + self.right * (side * self.face_width)
-                   for up in (0.5 + REGION_UP, -0.5 - REGION_DOWN) for side in (-REGION_SIDE, REGION_SIDE)]
-        low, high = np.min(corners, axis=0), np.max(corners, axis=0)
+        self.scale = WORK_FACE_HEIGHT / self.face_height  # work px per photo px
+        self.rows = max(1, round((1 + REGION_UP + REGION_DOWN) * WORK_FACE_HEIGHT))
+        self.cols = max(1, round(2 * REGION_SIDE * self.face_width * self.scale))
+        # (rows, cols) each work pixel's centre in face heights above the face's centre and face widths right of its
+        # centre line, then in photo coordinates.
+        ups = 0.5 + REGION_UP - (np.arange(self.rows) + 0.5) / self.rows * (1 + REGION_UP + REGION_DOWN)
+        rights = REGION_SIDE * ((np.arange(self.cols) + 0.5) / self.cols * 2 - 1)
+        self.along_up, self.along_right = np.meshgrid(ups, rights, indexing="ij")
+        self.xs, self.ys = np.moveaxis(self.to_photo(self.along_up, self.along_right), -1, 0)
+        self.inside = (self.xs >= 0) & (self.xs < width) & (self.ys >= 0) & (self.ys < height)
+        corners = self.to_photo(np.array([0.5 + REGION_UP, -0.5 - REGION_DOWN])[:, None],
+                                np.array([-REGION_SIDE, REGION_SIDE])[None]).reshape(-1, 2)
+        low, high = corners.min(axis=0), corners.max(axis=0)
         x0, y0 = max(0, int(math.floor(low[0]))), max(0, int(math.floor(low[1])))
         x1, y1 = min(width, int(math.ceil(high[0]))), min(height, int(math.ceil(high[1])))
-        self.box = (x0, y0, max(0, x1 - x0), max(0, y1 - y0))
-        self.scale = WORK_FACE_HEIGHT / self.face_height  # work px per photo px
-        self.rows = max(1, round(self.box[3] * self.scale))
-        self.cols = max(1, round(self.box[2] * self.scale))
-        ys = y0 + (np.arange(self.rows) + 0.5) * self.box[3] / self.rows
-        xs = x0 + (np.arange(self.cols) + 0.5) * self.box[2] / self.cols
-        self.xs, self.ys = np.meshgrid(xs, ys)  # (rows, cols) photo coordinates of the work pixels' centres
-        offset = np.stack([self.xs, self.ys], -1) - self.centre
-        self.along_up = offset @ self.up / self.face_height  # face heights above the face's centre
-        self.along_right = offset @ self.right / self.face_width  # face widths right of the centre line
+        self.box = (x0, y0, max(0, x1 - x0), max(0, y1 - y0))  # the region's axis-aligned box on the photo
         self.marks_up = (landmarks - self.centre) @ self.up / self.face_height  # (468,) the landmarks likewise
         self.marks_right = (landmarks - self.centre) @ self.right / self.face_width
 
+    def to_photo(self, along_up: np.ndarray, along_right: np.ndarray) -> np.ndarray:
+        """Face heights above the centre and face widths right of it (broadcast together) -> (..., 2) photo x, y."""
+        return (self.centre + np.multiply.outer(along_up * self.face_height, self.up)
+                + np.multiply.outer(along_right * self.face_width, self.right))
+
+    def to_work(self, points: np.ndarray) -> np.ndarray:
+        """(..., 2) photo x, y -> (..., 2) work grid col, row (pixel centres at +0.5)."""
+        offset = np.asarray(points, np.float64) - self.centre
+        col = (offset @ self.right / self.face_width / REGION_SIDE + 1) / 2 * self.cols
+        row = (0.5 + REGION_UP - offset @ self.up / self.face_height) / (1 + REGION_UP + REGION_DOWN) * self.rows
+        return np.stack([col, row], -1)
+
     def sample(self, image: np.ndarray) -> np.ndarray:
-        """(H, W, 3) -> (rows, cols, 3) float32 the region on the work grid (block means, then bilinear)."""
+        """(H, W, 3) -> (rows, cols, 3) float32 the region on the work grid (block means, then bilinear; black
+        outside the photo)."""
         x0, y0, w, h = self.box
+        if w < 1 or h < 1:
+            return np.zeros((self.rows, self.cols, 3), np.float32)
         factor = max(1, int(1 / self.scale))
         region = reduce(image[y0:y0 + h, x0:x0 + w], factor)
         return np.clip(sample_bilinear(region, (self.xs - x0) / factor, (self.ys - y0) / factor), 0, 1
                        ).transpose(1, 2, 0)
 
     def segmenter_matrix(self) -> np.ndarray:
-        """(2, 3) the model's 256 x 256 input onto the square around the region (the head and shoulders, as a selfie
-        frames them), turned with the head where it is tilted: the model, like a selfie, expects a person upright."""
-        roll = math.atan2(self.right[1], self.right[0])
-        if abs(roll) <= UPRIGHT_ROLL:
-            x0, y0, w, h = self.box
-            side = max(w, h)
-            return np.array([[side / SEGMENTER_SIZE, 0.0, x0 + (w - side) / 2],
-                             [0.0, side / SEGMENTER_SIZE, y0 + (h - side) / 2]])
-        side = max((1 + REGION_UP + REGION_DOWN) * self.face_height, 2 * REGION_SIDE * self.face_width)
-        centre = self.centre + self.up * ((REGION_UP - REGION_DOWN) / 2 * self.face_height)
-        return square_matrix(centre, side, roll, SEGMENTER_SIZE)
+        """(2, 3) the model's 256 x 256 input onto the square around the part of the region inside the photo (the head
+        and shoulders, as a selfie frames them), turned with the head: the model, like a selfie, expects a person
+        upright, so a tilted head is shown to it as the same head upright would be."""
+        ups, rights = self.along_up[self.inside], self.along_right[self.inside]
+        if not ups.size:
+            ups, rights = self.along_up, self.along_right
+        side = max(float(np.ptp(ups) + (1 + REGION_UP + REGION_DOWN) / self.rows) * self.face_height,
+                   float(np.ptp(rights) + 2 * REGION_SIDE / self.cols) * self.face_width)
+        centre = self.to_photo((ups.min() + ups.max()) / 2, (rights.min() + rights.max()) / 2)
+        return square_matrix(centre, side, math.atan2(self.right[1], self.right[0]), SEGMENTER_SIZE)
 
     def sample_person(self, probability: np.ndarray) -> np.ndarray:
         """The segmenter's (256, 256) output on the work grid (rows, cols)."""
         to_model = np.linalg.inv(np.vstack([self.segmenter_matrix(), [0.0, 0.0, 1.0]]))
         u = to_model[0, 0] * self.xs + to_model[0, 1] * self.ys + to_model[0, 2]
         v = to_model[1, 0] * self.xs + to_model[1, 1] * self.ys + to_model[1, 2]
-        return sample_bilinear(probability[..., None].astype(np.float32), u, v)[0]
+        return sample_bilinear(probability[..., None].astype(np.float32), u, v)[0] * self.inside
 
     def polygon(self, points: np.ndarray) -> np.ndarray:
-        """(rows, cols) bool: the work pixels inside a polygon (K, 2) given in photo pixels."""
-        x0, y0, w, h = self.box
-        work = (points.astype(np.float64) - (x0, y0)) * (self.cols / max(w, 1), self.rows / max(h, 1))
-        return polygon_mask(work, 0, 0, self.cols, self.rows)
+        """(rows, cols) bool: the work pixels inside the photo and inside a polygon (K, 2) given in photo pixels."""
+        return polygon_mask(self.to_work(points), 0, 0, self.cols, self.rows) & self.inside
 
     def seed(self) -> np.ndarray:
         """(rows, cols) bool: the band above the forehead where hair is looked for first."""
@@ -347,10 +362,25 @@ class HeadFrame:
         return 0.5 * abs(float(x @ np.roll(y, -1) - y @ np.roll(x, -1)))
 
     def to_image(self, score: np.ndarray) -> np.ndarray:
-        """(rows, cols) hair score in [0, 1] -> (H, W) float32 0/1 on the photo, over the region (bilinear, > 0.5)."""
+        """(rows, cols) hair score in [0, 1] -> (H, W) float32 0/1 on the photo, over the region: the score resized
+        bilinearly (edges repeated) to up to TO_IMAGE_UPSAMPLE times the work grid, > 0.5, then each photo pixel takes
+        its nearest; in bands of TO_IMAGE_ROWS rows, so that a large photo costs no whole-photo grids."""
         x0, y0, w, h = self.box
         mask = np.zeros(self.shape, np.float32)
-        mask[y0:y0 + h, x0:x0 + w] = linear_weights(h, self.rows) @ score @ linear_weights(w, self.cols).T > 0.5
+        fine = min(TO_IMAGE_UPSAMPLE, max(1, math.ceil(1 / self.scale)))
+        rows, cols = self.rows * fine, self.cols * fine
+        hair = (linear_weights(rows, self.rows) @ score @ linear_weights(cols, self.cols).T > 0.5).ravel()
+        # The work grid's col and row are affine in the photo's x and y: each a x + b y + c.
+        origin = self.to_work(np.zeros(2)) * fine
+        (col_x, row_x), (col_y, row_y) = (self.to_work(np.eye(2)) * fine - origin).astype(np.float32)
+        col_0, row_0 = origin.astype(np.float32)
+        xs = (x0 + np.arange(w) + 0.5).astype(np.float32)
+        for top in range(y0, y0 + h, TO_IMAGE_ROWS):
+            ys = (np.arange(top, min(top + TO_IMAGE_ROWS, y0 + h)) + 0.5).astype(np.float32)[:, None]
+            col = np.floor(col_x * xs + (col_y * ys + col_0)).astype(np.intp)
+            row = np.floor(row_x * xs + (row_y * ys + row_0)).astype(np.intp)
+            within = (col >= 0) & (col < cols) & (row >= 0) & (row < rows)
+            mask[top:top + len(ys), x0:x0 + w] = hair[np.where(within, row * cols + col, 0)] & within
         return mask
 
 

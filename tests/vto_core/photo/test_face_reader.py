@@ -131,3 +131,25 @@ def test_roll_is_read_from_the_eyes_and_the_mouth(reader, astronaut):
     flipped[:, 1] *= -1  # mirrored top to bottom: the same lines, their y reversed
     assert fr.roll_of(flipped) == pytest.approx(-fr.roll_of(face.landmarks))
     assert fr.turn_between(np.radians(179), np.radians(-179)) == pytest.approx(np.radians(-2))
+
+
+def test_an_upside_down_group_reads_every_face_and_the_largest(reader, astronaut):
+    # Three faces, largest on the left. Upside down, the detector alone finds two of them and takes a smaller face's
+    # upright box for the largest; the photo turned back finds all three, and the landmarks say which is largest.
+    from vto_core.imageio import resize
+
+    group = np.zeros((300, 900, 3), np.float32)
+    for i, side in enumerate((280, 250, 220)):
+        group[:side, i * 300:i * 300 + side] = resize(astronaut[:300, 100:400], side, side)
+    upright = reader.read(group)
+    face = reader.read(np.ascontiguousarray(group[::-1, ::-1]))
+    assert upright.faces == face.faces == 3
+    assert np.abs(face.landmarks[[61, 291]] - ((900, 300) - upright.landmarks[[61, 291]])).max() < 2.0
+
+
+def test_face_size_is_the_same_at_any_roll(reader, astronaut):
+    landmarks = reader.read(astronaut).landmarks.astype(np.float64)
+    turn = np.radians(35)
+    rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    assert fr.face_size(landmarks @ rotation.T) == pytest.approx(fr.face_size(landmarks), rel=1e-9)
+    assert fr.face_size(landmarks * 2) == pytest.approx(2 * fr.face_size(landmarks), rel=1e-9)

@@ -64,7 +64,7 @@ def test_a_tight_crop_is_found_beside_the_face(reader, locator, astronaut, astro
     crop = np.ascontiguousarray(astronaut[TIGHT])
     face = reader.read(crop)
     frame = hl.HeadFrame(face.landmarks, *crop.shape[:2])
-    assert not frame.seed().any()  # the band above her forehead is out of frame
+    assert not (frame.seed() & frame.inside).any()  # the band above her forehead is out of frame
     hair = locator.locate(crop, face).mask > 0.5
     assert iou(hair, astronaut_hair[TIGHT]) >= 0.5
     assert hair[:, :40].any() and hair[:, 150:].any()  # beside her face on both sides
@@ -179,3 +179,24 @@ def test_helpers():
     assert model.log_likelihood(np.array([50.0, 5, 10])) > model.log_likelihood(np.array([80.0, 5, 10]))
     assert hl.Gaussian.fit(np.zeros((3, 3))) is None
 
+
+
+@pytest.mark.parametrize("degrees", [0, 30, 180])
+def test_the_work_grid_turns_with_the_head(reader, astronaut, degrees):
+    # The grid lies along the face's axes: the same work pixel is the same place on the head at any roll, and the
+    # region drawn back onto the photo is the region's own rectangle.
+    landmarks = reader.read(astronaut).landmarks.astype(np.float64)
+    turn = np.radians(degrees)
+    rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    turned = (landmarks - 256) @ rotation.T + 600
+    upright, frame = hl.HeadFrame(landmarks, 1200, 1200), hl.HeadFrame(turned, 1200, 1200)
+    assert (frame.rows, frame.cols) == (upright.rows, upright.cols) and frame.inside.all()
+    expected = (np.stack([upright.xs, upright.ys], -1) - 256) @ rotation.T + 600
+    assert np.abs(np.stack([frame.xs, frame.ys], -1) - expected).max() < 1e-6
+    assert np.abs(frame.to_work(np.stack([frame.xs, frame.ys], -1))
+                  - np.stack(np.meshgrid(np.arange(frame.cols), np.arange(frame.rows)), -1) - 0.5).max() < 1e-6
+    area = (1 + hl.REGION_UP + hl.REGION_DOWN) * frame.face_height * 2 * hl.REGION_SIDE * frame.face_width
+    assert frame.to_image(np.ones((frame.rows, frame.cols))).sum() == pytest.approx(area, rel=0.01)
+    half = frame.to_image((frame.along_right > 0).astype(float))  # the head's right half: image right when upright
+    centre = frame.centre + frame.right * frame.face_width * 0.8
+    assert half[int(centre[1]), int(centre[0])] == 1
