@@ -7,7 +7,7 @@ then (a) stored in each of the eight EXIF orientations, its pixels laid so that 
 -45 to 45 degrees in steps of 15, and 180, its canvas grown to hold it (black corners). Each goes through `vto match`
 (Fast) for lips and for hair (the hair found in the whole portrait). TIFFs are lossless, so every orientation
 stores the same pixels. Figure: the CIEDE2000 between the apparent colour
-(on default sources 0-7, blender_addon.matching.photo_fit.apparent_colour) of the estimate and that of the upright
+(on default sources 0-1, blender_addon.matching.photo_fit.apparent_colour) of the estimate and that of the upright
 photo's estimate. (c) Monochrome: colour_spread and grey chroma (vto_core.photo.monochrome) of each photo, of it
 desaturated to 40 %, and of its black-and-white, sepia and cyanotype JPEGs, with the margins to the thresholds.
 (d) Times on a 1-megapixel portrait: reading the file (orientation applied, or not), the face read as before (one
@@ -37,6 +37,7 @@ STORED = {1: lambda a: a, 2: lambda a: a[:, ::-1], 3: lambda a: a[::-1, ::-1], 4
           5: lambda a: a.swapaxes(0, 1), 6: lambda a: np.rot90(a, 1), 7: lambda a: a[::-1, ::-1].swapaxes(0, 1),
           8: lambda a: np.rot90(a, -1)}
 RESULT = Path(__file__).parent / "results" / "photo_forms.md"
+SOURCES = (0, 1)  # the default sources an estimate's apparent colour is read on, as the issue measured it
 
 
 def tilted(photo: np.ndarray, degrees: float) -> np.ndarray:
@@ -61,7 +62,7 @@ class Apparent:
 
         key = tuple(round(float(values[k]), 5) for k in sorted(values))
         if key not in self.cache:
-            self.cache[key] = apparent_colour(self.renderer, values)["mean"]
+            self.cache[key] = apparent_colour(self.renderer, values, sources=SOURCES)["mean"]
         return self.cache[key]
 
 
@@ -205,7 +206,7 @@ def main(argv: list[str] | None = None) -> None:
 
     text = (f"# Photos as phones give them\n\nMachine: {machine()}. Reproduce: `{command}`.\n\n"
             "## Orientation and tilt\n\nCIEDE2000 of each form's Fast estimate (apparent colour on default sources "
-            "0-7) to the upright photo's, pooled over the portraits; 'refused' counts forms read as no face or no "
+            "0-1) to the upright photo's, pooled over the portraits; 'refused' counts forms read as no face or no "
             "hair where the upright photo was read.\n\n"
             + table(["renderer", "forms", "n", "median", "largest", "refused"], summarise(pooled))
             + "\n\nPer portrait (largest over the seven other EXIF orientations; median and largest over the tilts):"

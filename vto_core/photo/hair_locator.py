@@ -70,6 +70,7 @@ LAB_FLOOR = np.diag([4.0, 1.0, 1.0])  # variance floor of each colour model (L*,
 # must still take in the same hair in shade, whose colour differs more than any seed shows.
 HAIR_SPREAD = 0.35
 GROW_ROUNDS = 3  # hair models refitted on the hair found, then the hair found again
+PADDING_LEVEL = 0.5 / 255  # every channel under this is a canvas's pure black (8-bit 0), where it meets the edge
 TO_IMAGE_ROWS = 256  # photo rows the hair's mask is drawn in at a time
 TO_IMAGE_UPSAMPLE = 4  # the work grid's score is resized up to this many times before each photo pixel takes its nearest
 
@@ -98,7 +99,11 @@ class Gaussian:
         if len(lab) < 8:
             return None
         covariance = np.cov(lab, rowvar=False) + floor
-        return cls(lab.mean(axis=0), np.linalg.inv(covariance), float(np.linalg.slogdet(covariance)[1]))
+        # The 3 x 3 inverse by its adjugate (rows: cross products of the columns), not LAPACK, whose threads stall a
+        # busy machine; the floor keeps the determinant positive.
+        adjugate = np.cross(covariance[[1, 2, 0]], covariance[[2, 0, 1]])
+        determinant = float(adjugate[0] @ covariance[0])
+        return cls(lab.mean(axis=0), adjugate / determinant, math.log(determinant))
 
     def distance(self, lab: np.ndarray) -> np.ndarray:
         """(..., 3) -> (...) squared Mahalanobis distance from the mean."""
@@ -134,7 +139,9 @@ class HairLocator:
         frame = HeadFrame(face.landmarks, height, width)
         if frame.box[2] < 4 or frame.box[3] < 4:
             raise VtoError("no hair found: the head is out of frame")
-        rgb = frame.sample(image) if light is None else neutral_photo(frame.sample(image), light)
+        rgb = frame.sample(image)
+        frame.inside &= ~padding(rgb, frame.inside)
+        rgb = rgb if light is None else neutral_photo(rgb, light)
         person = frame.sample_person(self.person(image, frame.segmenter_matrix()))
         lab = srgb_to_lab(rgb).astype(np.float64)
         oval = frame.polygon(face.landmarks[FACE_OVAL])
@@ -458,6 +465,17 @@ def hair_margin(lab: np.ndarray, hair_models: list[Gaussian], models: dict[str, 
     others = [model.log_likelihood(lab) for model in models.values()]
     best_other = np.max(others, axis=0) if others else np.full_like(hair, -np.inf)
     return box_blur(np.clip(hair - best_other, -50, 50))
+
+
+def padding(rgb: np.ndarray, inside: np.ndarray) -> np.ndarray:
+    """(rows, cols) bool: the work pixels (rgb (rows, cols, 3), `inside` the photo (rows, cols) bool) of a canvas's
+    padding: pure black (every channel under PADDING_LEVEL) and connected to the photo's edge or the grid's. A photo
+    turned on a larger canvas, or letterboxed, has black there that is no part of the scene, and the person model
+    takes it for the person beside it."""
+    black = rgb.max(axis=2) < PADDING_LEVEL
+    edge = np.pad(~inside, 1, constant_values=True)
+    edge = edge[:-2, 1:-1] | edge[2:, 1:-1] | edge[1:-1, :-2] | edge[1:-1, 2:]  # beside the photo's edge or the grid's
+    return grow(edge & black & inside, black & inside)
 
 
 def box_blur(values: np.ndarray) -> np.ndarray:

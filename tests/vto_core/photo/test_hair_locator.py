@@ -200,3 +200,16 @@ def test_the_work_grid_turns_with_the_head(reader, astronaut, degrees):
     half = frame.to_image((frame.along_right > 0).astype(float))  # the head's right half: image right when upright
     centre = frame.centre + frame.right * frame.face_width * 0.8
     assert half[int(centre[1]), int(centre[0])] == 1
+
+
+def test_a_canvas_black_border_is_padding_and_black_in_the_scene_is_not():
+    rgb = np.full((20, 30, 3), 0.4, np.float32)
+    rgb[:6, :8] = 0.0  # a turned photo's black corner, at the grid's edge
+    rgb[10:14, 12:16] = 0.0  # a black thing in the middle of the scene
+    rgb[15:, 25:] = 1.5 / 255  # near-black at the edge: a dark scene, not a canvas
+    inside = np.ones((20, 30), bool)
+    inside[:, :2] = False  # beyond the photo's left edge
+    found = hl.padding(rgb, inside)
+    assert found[:6, 2:8].all() and found.sum() == 6 * 6
+    inside[:, :] = True
+    assert hl.padding(rgb, inside)[:6, :8].all() and not hl.padding(rgb, inside)[10:14, 12:16].any()
