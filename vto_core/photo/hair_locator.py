@@ -70,9 +70,10 @@ LAB_FLOOR = np.diag([4.0, 1.0, 1.0])  # variance floor of each colour model (L*,
 # must still take in the same hair in shade, whose colour differs more than any seed shows.
 HAIR_SPREAD = 0.35
 GROW_ROUNDS = 3  # hair models refitted on the hair found, then the hair found again
+UPRIGHT_ROLL = math.radians(5)  # a head rolled more than this is worked on along its own axes, turned upright
 PADDING_LEVEL = 0.5 / 255  # every channel under this is a canvas's pure black (8-bit 0), where it meets the edge
 TO_IMAGE_ROWS = 256  # photo rows the hair's mask is drawn in at a time
-TO_IMAGE_UPSAMPLE = 4  # the work grid's score is resized up to this many times before each photo pixel takes its nearest
+TO_IMAGE_UPSAMPLE = 4  # the work grid score is resized up to this many times, then each photo pixel takes its nearest
 
 
 @dataclass
@@ -149,15 +150,15 @@ class HairLocator:
                                frame.clothes())
         seeds = frame.seeds(oval, person >= PERSON, models["skin"].distance(lab) > SKIN_LIKE if "skin" in models
                             else np.ones_like(oval))
-        hair, seed, fringe = hair_seeds(lab, seeds, models)
+        hair, seed, fringe = hair_seeds(lab, seeds, models, frame.inside)
         candidates = (person >= HAIR_CANDIDATE) & (~oval | fringe) & ~frame.under_chin()
         for _ in range(GROW_ROUNDS):
             parts = split_by_lightness(lab[hair])
             if not parts:
                 break
-            margin = hair_margin(lab, parts, models)
+            margin = hair_margin(lab, parts, models, frame.inside)
             hair = grow(seed & (margin > 0), candidates & (margin > 0))
-        score = box_blur(np.where(hair, 1.0, 0.0))
+        score = box_blur(np.where(hair, 1.0, 0.0), frame.inside)
         mask = frame.to_image(score)
         if mask.sum() < MIN_HAIR_SHARE * frame.oval_area(face.landmarks[FACE_OVAL]):
             raise VtoError("no hair found: too little hair beside the face to read (bald, or a hat?)")
@@ -190,20 +191,20 @@ def seed_problem(lab: np.ndarray, area: float, models: dict[str, Gaussian]) -> s
     return ""
 
 
-def hair_seeds(lab: np.ndarray, seeds: list[Seed], models: dict[str, Gaussian]
+def hair_seeds(lab: np.ndarray, seeds: list[Seed], models: dict[str, Gaussian], inside: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(where the hair's colour is first fitted, where it grows from, the fringe's seed or none) (rows, cols) bool
     each, from the seeds that show hair (seed_problem). Where the band above the forehead shows it, the colour is
     fitted on it alone, and a seed elsewhere must be that hair's colour rather than another's (a headset, a collar);
     else on all the seeds that show hair. VtoError (the first seed's problem that is not the frame's, else the
-    frame's) where none shows hair."""
+    frame's) where none shows hair. inside: the work pixels in the photo (None: all)."""
     problems = {seed.name: seed_problem(lab[seed.where], seed.area, models) for seed in seeds}
     shown = [seed for seed in seeds if not problems[seed.name]]
     if not shown:
         raise VtoError(next((p for p in problems.values() if p != OUT_OF_FRAME), OUT_OF_FRAME))
     if shown[0].name == "top":
         parts = split_by_lightness(lab[shown[0].where])
-        margin = hair_margin(lab, parts, models)
+        margin = hair_margin(lab, parts, models, inside)
         shown = shown[:1] + [seed for seed in shown[1:] if np.median(margin[seed.where]) > 0]
     fringe = next((seed.where for seed in shown if seed.name == "fringe"), np.zeros_like(seeds[0].where))
     every = np.logical_or.reduce([seed.where for seed in shown])
@@ -211,8 +212,9 @@ def hair_seeds(lab: np.ndarray, seeds: list[Seed], models: dict[str, Gaussian]
 
 
 class HeadFrame:
-    """The head's region of a photo and its work grid: a rectangle around the face, along the face's own axes (so a
-    tilted head is worked on as an upright one), sampled at WORK_FACE_HEIGHT px per face height."""
+    """The head's region of a photo and its work grid, sampled at WORK_FACE_HEIGHT px per face height: the region's
+    box along the photo's axes where the head is upright (within UPRIGHT_ROLL), else along the face's own axes, so
+    that a tilted head is worked on as it would be upright."""
 
     def __init__(self, landmarks: np.ndarray, height: int, width: int):
         landmarks = landmarks.astype(np.float64)
@@ -224,35 +226,37 @@ class HeadFrame:
         self.face_width = max(float(np.linalg.norm(landmarks[LEFT_CHEEK] - landmarks[RIGHT_CHEEK])), 1.0)
         self.centre = (top + chin) / 2
         self.scale = WORK_FACE_HEIGHT / self.face_height  # work px per photo px
-        self.rows = max(1, round((1 + REGION_UP + REGION_DOWN) * WORK_FACE_HEIGHT))
-        self.cols = max(1, round(2 * REGION_SIDE * self.face_width * self.scale))
-        # (rows, cols) each work pixel's centre in face heights above the face's centre and face widths right of its
-        # centre line, then in photo coordinates.
-        ups = 0.5 + REGION_UP - (np.arange(self.rows) + 0.5) / self.rows * (1 + REGION_UP + REGION_DOWN)
-        rights = REGION_SIDE * ((np.arange(self.cols) + 0.5) / self.cols * 2 - 1)
-        self.along_up, self.along_right = np.meshgrid(ups, rights, indexing="ij")
-        self.xs, self.ys = np.moveaxis(self.to_photo(self.along_up, self.along_right), -1, 0)
+        roll = math.atan2(self.right[1], self.right[0])
+        self.turn = roll if abs(roll) > UPRIGHT_ROLL else 0.0  # the grid's axes: the photo's, or the face's
+        self.across = np.array([math.cos(self.turn), math.sin(self.turn)])  # the grid's x and y in the photo
+        self.down = np.array([-self.across[1], self.across[0]])
+        corners = [self.centre + self.up * (up * self.face_height) + self.right * (side * self.face_width)
+                   for up in (0.5 + REGION_UP, -0.5 - REGION_DOWN) for side in (-REGION_SIDE, REGION_SIDE)]
+        along = np.array(corners) @ np.stack([self.across, self.down], 1)  # (4, 2) the corners on the grid's axes
+        self.low, self.high = along.min(axis=0), along.max(axis=0)
+        self.cols, self.rows = (max(1, round(float(v))) for v in (self.high - self.low) * self.scale)
+        cols, rows = self.from_work(*np.meshgrid(np.arange(self.cols) + 0.5, np.arange(self.rows) + 0.5))
+        self.xs, self.ys = cols, rows  # (rows, cols) photo coordinates of the work pixels' centres
         self.inside = (self.xs >= 0) & (self.xs < width) & (self.ys >= 0) & (self.ys < height)
-        corners = self.to_photo(np.array([0.5 + REGION_UP, -0.5 - REGION_DOWN])[:, None],
-                                np.array([-REGION_SIDE, REGION_SIDE])[None]).reshape(-1, 2)
-        low, high = corners.min(axis=0), corners.max(axis=0)
+        offset = np.stack([self.xs, self.ys], -1) - self.centre
+        self.along_up = offset @ self.up / self.face_height  # face heights above the face's centre
+        self.along_right = offset @ self.right / self.face_width  # face widths right of the centre line
+        low, high = np.min(corners, axis=0), np.max(corners, axis=0)
         x0, y0 = max(0, int(math.floor(low[0]))), max(0, int(math.floor(low[1])))
         x1, y1 = min(width, int(math.ceil(high[0]))), min(height, int(math.ceil(high[1])))
         self.box = (x0, y0, max(0, x1 - x0), max(0, y1 - y0))  # the region's axis-aligned box on the photo
         self.marks_up = (landmarks - self.centre) @ self.up / self.face_height  # (468,) the landmarks likewise
         self.marks_right = (landmarks - self.centre) @ self.right / self.face_width
 
-    def to_photo(self, along_up: np.ndarray, along_right: np.ndarray) -> np.ndarray:
-        """Face heights above the centre and face widths right of it (broadcast together) -> (..., 2) photo x, y."""
-        return (self.centre + np.multiply.outer(along_up * self.face_height, self.up)
-                + np.multiply.outer(along_right * self.face_width, self.right))
+    def from_work(self, col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Work grid col, row (pixel centres at +0.5; any shape) -> photo x, y."""
+        a, d = self.low[0] + col / self.scale, self.low[1] + row / self.scale
+        return a * self.across[0] + d * self.down[0], a * self.across[1] + d * self.down[1]
 
     def to_work(self, points: np.ndarray) -> np.ndarray:
         """(..., 2) photo x, y -> (..., 2) work grid col, row (pixel centres at +0.5)."""
-        offset = np.asarray(points, np.float64) - self.centre
-        col = (offset @ self.right / self.face_width / REGION_SIDE + 1) / 2 * self.cols
-        row = (0.5 + REGION_UP - offset @ self.up / self.face_height) / (1 + REGION_UP + REGION_DOWN) * self.rows
-        return np.stack([col, row], -1)
+        points = np.asarray(points, np.float64)
+        return np.stack([points @ self.across - self.low[0], points @ self.down - self.low[1]], -1) * self.scale
 
     def sample(self, image: np.ndarray) -> np.ndarray:
         """(H, W, 3) -> (rows, cols, 3) float32 the region on the work grid (block means, then bilinear; black
@@ -267,15 +271,14 @@ class HeadFrame:
 
     def segmenter_matrix(self) -> np.ndarray:
         """(2, 3) the model's 256 x 256 input onto the square around the part of the region inside the photo (the head
-        and shoulders, as a selfie frames them), turned with the head: the model, like a selfie, expects a person
+        and shoulders, as a selfie frames them), along the grid's axes: the model, like a selfie, expects a person
         upright, so a tilted head is shown to it as the same head upright would be."""
-        ups, rights = self.along_up[self.inside], self.along_right[self.inside]
-        if not ups.size:
-            ups, rights = self.along_up, self.along_right
-        side = max(float(np.ptp(ups) + (1 + REGION_UP + REGION_DOWN) / self.rows) * self.face_height,
-                   float(np.ptp(rights) + 2 * REGION_SIDE / self.cols) * self.face_width)
-        centre = self.to_photo((ups.min() + ups.max()) / 2, (rights.min() + rights.max()) / 2)
-        return square_matrix(centre, side, math.atan2(self.right[1], self.right[0]), SEGMENTER_SIZE)
+        rows, cols = np.nonzero(self.inside)
+        if not rows.size:
+            rows, cols = np.array([0, self.rows - 1]), np.array([0, self.cols - 1])
+        side = (max(np.ptp(rows), np.ptp(cols)) + 1) / self.scale
+        centre = np.array(self.from_work((cols.min() + cols.max() + 1) / 2, (rows.min() + rows.max() + 1) / 2))
+        return square_matrix(centre, side, self.turn, SEGMENTER_SIZE)
 
     def sample_person(self, probability: np.ndarray) -> np.ndarray:
         """The segmenter's (256, 256) output on the work grid (rows, cols)."""
@@ -459,12 +462,14 @@ def split_by_lightness(hair: np.ndarray) -> list[Gaussian]:
     return [model for model in halves if model is not None]
 
 
-def hair_margin(lab: np.ndarray, hair_models: list[Gaussian], models: dict[str, Gaussian]) -> np.ndarray:
-    """(rows, cols) the best hair model's log-likelihood less the best of the others', smoothed over 3 x 3 pixels."""
+def hair_margin(lab: np.ndarray, hair_models: list[Gaussian], models: dict[str, Gaussian],
+                inside: np.ndarray | None = None) -> np.ndarray:
+    """(rows, cols) the best hair model's log-likelihood less the best of the others', smoothed over 3 x 3 pixels of
+    those `inside` the photo (rows, cols) bool (None: all)."""
     hair = np.max([model.log_likelihood(lab) for model in hair_models], axis=0)
     others = [model.log_likelihood(lab) for model in models.values()]
     best_other = np.max(others, axis=0) if others else np.full_like(hair, -np.inf)
-    return box_blur(np.clip(hair - best_other, -50, 50))
+    return box_blur(np.clip(hair - best_other, -50, 50), inside)
 
 
 def padding(rgb: np.ndarray, inside: np.ndarray) -> np.ndarray:
@@ -478,11 +483,19 @@ def padding(rgb: np.ndarray, inside: np.ndarray) -> np.ndarray:
     return grow(edge & black & inside, black & inside)
 
 
-def box_blur(values: np.ndarray) -> np.ndarray:
-    """(rows, cols) the mean over each pixel's 3 x 3 neighbourhood, edges repeated."""
-    padded = np.pad(values, 1, mode="edge")
+def box_blur(values: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    """(rows, cols) the mean over each pixel's 3 x 3 neighbourhood, edges repeated; with `weights` (rows, cols) bool,
+    over the neighbours it holds (a pixel with none keeps 0), so that what lies outside the photo counts for nothing."""
     rows, cols = values.shape
-    return sum(padded[dy:dy + rows, dx:dx + cols] for dy in range(3) for dx in range(3)) / 9.0
+
+    def total(array):
+        padded = np.pad(array, 1, mode="edge")
+        return sum(padded[dy:dy + rows, dx:dx + cols] for dy in range(3) for dx in range(3))
+
+    if weights is None:
+        return total(values) / 9.0
+    count = total(weights.astype(np.float64))
+    return total(np.where(weights, values, 0.0)) / np.maximum(count, 1.0)
 
 
 def grow(seed: np.ndarray, allowed: np.ndarray) -> np.ndarray:
