@@ -232,8 +232,11 @@ class HeadFrame:
         self.down = np.array([-self.across[1], self.across[0]])
         corners = [self.centre + self.up * (up * self.face_height) + self.right * (side * self.face_width)
                    for up in (0.5 + REGION_UP, -0.5 - REGION_DOWN) for side in (-REGION_SIDE, REGION_SIDE)]
-        along = np.array(corners) @ np.stack([self.across, self.down], 1)  # (4, 2) the corners on the grid's axes
-        self.low, self.high = along.min(axis=0), along.max(axis=0)
+        axes = np.stack([self.across, self.down], 1)
+        along = np.array(corners) @ axes  # (4, 2) the region's corners on the grid's axes, then the photo's
+        photo = np.array([[0.0, 0.0], [width, 0.0], [0.0, height], [width, height]]) @ axes
+        self.low = np.maximum(along.min(axis=0), photo.min(axis=0))  # the region's box, cut to the photo's
+        self.high = np.maximum(np.minimum(along.max(axis=0), photo.max(axis=0)), self.low)
         self.cols, self.rows = (max(1, round(float(v))) for v in (self.high - self.low) * self.scale)
         cols, rows = self.from_work(*np.meshgrid(np.arange(self.cols) + 0.5, np.arange(self.rows) + 0.5))
         self.xs, self.ys = cols, rows  # (rows, cols) photo coordinates of the work pixels' centres
