@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.bench_real_photos import MODELS, PHOTOS, delta_e, load_photo
-from benchmarks.common import machine, table
+from benchmarks.common import machine, table, tilted
 
 TILTS = (-45, -30, -15, 15, 30, 45, 180)
 # Orientation tag -> how the stored pixels are laid so that a viewer applying the tag shows the upright photo.
@@ -38,17 +38,6 @@ STORED = {1: lambda a: a, 2: lambda a: a[:, ::-1], 3: lambda a: a[::-1, ::-1], 4
           8: lambda a: np.rot90(a, -1)}
 RESULT = Path(__file__).parent / "results" / "photo_forms.md"
 SOURCES = (0, 1)  # the default sources an estimate's apparent colour is read on, as the issue measured it
-
-
-def tilted(photo: np.ndarray, degrees: float) -> np.ndarray:
-    """(H, W, 3) turned `degrees` clockwise about its centre on a canvas grown to hold it (black corners)."""
-    import OpenImageIO as oiio
-
-    if degrees == 180:
-        return np.ascontiguousarray(photo[::-1, ::-1])
-    turned = oiio.ImageBufAlgo.rotate(oiio.ImageBuf(np.ascontiguousarray(photo)), math.radians(degrees),
-                                      recompute_roi=True)
-    return np.clip(turned.get_pixels(oiio.FLOAT)[..., :3], 0, 1)
 
 
 class Apparent:

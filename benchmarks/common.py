@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import platform
 import re
@@ -89,3 +90,15 @@ def write_section(result: str, name: str, text: str, results: Path = RESULTS) ->
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(new)
     print(block)
+
+
+def tilted(photo: np.ndarray, degrees: float) -> np.ndarray:
+    """(H, W, 3) turned `degrees` clockwise about its centre on a canvas grown to hold it (black corners), as a tilted
+    selfie (a half turn exactly, by flipping)."""
+    import OpenImageIO as oiio
+
+    if degrees == 180:
+        return np.ascontiguousarray(photo[::-1, ::-1])
+    turned = oiio.ImageBufAlgo.rotate(oiio.ImageBuf(np.ascontiguousarray(photo)), math.radians(degrees),
+                                      recompute_roi=True)
+    return np.clip(turned.get_pixels(oiio.FLOAT)[..., :3], 0, 1)

@@ -5,6 +5,7 @@ once, the light taken out, tilted heads read upright, photos without colour refu
 import numpy as np
 import pytest
 
+from benchmarks.common import tilted
 from vto_core.errors import VtoError
 from vto_core.imageio import read_image, write_image
 from vto_core.photo.framing import lips_frame
@@ -243,17 +244,6 @@ def test_hair_is_found_under_a_warm_or_cool_light_as_under_a_neutral_one():
         assert (found & neutral).sum() / (found | neutral).sum() >= 0.8, kelvin
 
 
-def turned_photo(photo, degrees):
-    """(H, W, 3) turned `degrees` clockwise on a canvas grown to hold it (OpenImageIO), as a tilted selfie."""
-    import OpenImageIO as oiio
-
-    if degrees == 180:
-        return np.ascontiguousarray(photo[::-1, ::-1])
-    turned = oiio.ImageBufAlgo.rotate(oiio.ImageBuf(np.ascontiguousarray(photo)), np.radians(degrees),
-                                      recompute_roi=True)
-    return np.clip(turned.get_pixels(oiio.FLOAT)[..., :3], 0, 1)
-
-
 @pytest.mark.parametrize("degrees", [-30, 30, 180])
 def test_a_tilted_head_is_framed_upright_for_lips_and_hair(degrees):
     """The astronaut tilted: the lips and the hair square reach the encoder turned upright, near what the upright
@@ -265,8 +255,8 @@ def test_a_tilted_head_is_framed_upright_for_lips_and_hair(degrees):
     from vto_core.imageio import resize
 
     photo = skimage.data.astronaut().astype(np.float32) / 255
-    tilted = turned_photo(photo, degrees)
-    upright, turned = lips_reference(photo), lips_reference(tilted)
+    photo_tilted = tilted(photo, degrees)
+    upright, turned = lips_reference(photo), lips_reference(photo_tilted)
     assert upright.turn == 0.0 and abs((np.degrees(turned.turn) - degrees - 2.7 + 180) % 360 - 180) < 2
     assert f"face turned {np.degrees(turned.turn):+.0f} degrees: read upright" in turned.notes
     small = [resize(r.image, 64, 64) for r in (upright, turned)]
@@ -279,7 +269,7 @@ def test_a_tilted_head_is_framed_upright_for_lips_and_hair(degrees):
         return srgb_to_lab(rgb[mask > 0.5].mean(axis=0))
 
     assert np.linalg.norm(lips_lab(upright) - lips_lab(turned)) < 2.0
-    hair, turned_hair = hair_reference(photo), hair_reference(tilted)
+    hair, turned_hair = hair_reference(photo), hair_reference(photo_tilted)
     assert turned_hair.turn == pytest.approx(turned.turn)
     colours = [srgb_to_lab(r.image.mean(axis=(0, 1))) for r in (hair, turned_hair)]
     assert np.linalg.norm(colours[0] - colours[1]) < 3.0

@@ -33,15 +33,15 @@ def astronaut():
 def faces():
     """name -> portrait: a smile with teeth, a closed mouth, a moustache, a face turned (tilted) 20 degrees."""
     import matplotlib.cbook
-    import OpenImageIO as oiio
     import skimage.data
 
+    from benchmarks.common import tilted
+
     astronaut = skimage.data.astronaut().astype(np.float32) / 255
-    turned = oiio.ImageBufAlgo.rotate(oiio.ImageBuf(astronaut), np.radians(20), recompute_roi=True)
     return {"teeth": astronaut,
             "closed": read_image(matplotlib.cbook.get_sample_data("grace_hopper.jpg", asfileobj=False))[0],
             "moustache": read_image(PHOTOS / "nasa_jose_hernandez.jpg")[0],
-            "turned": np.clip(turned.get_pixels(oiio.FLOAT)[..., :3], 0, 1)}
+            "turned": tilted(astronaut, 20)}
 
 
 @pytest.mark.parametrize("name", ["teeth", "closed", "moustache", "turned"])

@@ -525,15 +525,13 @@ def test_the_thumbnail_outlines_the_lips_found():
 
 
 def test_the_thumbnail_draws_a_tilted_faces_frame_turned_on_the_photo_as_shown(portrait):
-    import OpenImageIO as oiio
-
+    from benchmarks.common import tilted as turned
     from blender_addon.matching.reference import lips_reference
     from vto_core.photo.framing import turned_lips_square
     from blender_addon.ui.thumbnail import CROP_COLOUR, SIZE, compose
 
     photo = read_image(portrait)[0]
-    tilted = np.clip(oiio.ImageBufAlgo.rotate(oiio.ImageBuf(photo), np.radians(30), recompute_roi=True)
-                     .get_pixels(oiio.FLOAT)[..., :3], 0, 1)
+    tilted = turned(photo, 30)
     reference = lips_reference(tilted)
     canvas = compose(tilted, None, None, reference.lips)
     frame = np.all(np.isclose(canvas[..., :3], CROP_COLOUR), axis=-1)
