@@ -255,7 +255,13 @@ def fit_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start:
     light = skin_light(*region) if imitator.typical_skin is not None else None
     target = region_statistics(*region)
     unit, wraps, held = fit_start(spec, start)
-    found = imitator.fit(target, unit, PRIOR_WEIGHT[spec.renderer], wraps, held, None if light is None else light[1])
+    skin = None if light is None else light[1]
+    # A hue is a turn: the encoder reads the hue of a near-grey hair (a cast of a few units of chroma) at random, and
+    # a fit from the wrong half of the circle settles elsewhere. The fit is also run from the opposite hue, and the one
+    # whose statistics come nearer the photo's is kept.
+    starts = [unit] + ([np.where(wraps, (unit + 0.5) % 1.0, unit)] if wraps.any() else [])
+    fits = [imitator.fit(target, begin, PRIOR_WEIGHT[spec.renderer], wraps, held, skin) for begin in starts]
+    found = min(fits, key=lambda fit: float(np.sum((imitator.statistics(fit, skin) - target) ** 2)))
     fitted = spec.values(spec.denormalise(found))
     return {name: float(fitted[name]) for name in spec.modelled}, ""
 
