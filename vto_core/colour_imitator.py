@@ -52,7 +52,7 @@ class ColourImitator:
 
     def fit(self, target: np.ndarray, start: np.ndarray, prior_weight: float, wraps: np.ndarray,
             held: dict[int, float] | None = None, skin_lab: np.ndarray | None = None,
-            iterations: int = 12) -> np.ndarray:
+            iterations: int = 40) -> np.ndarray:  # 12 left dark hair short of where it settles
         """The unit vector (m,) near `start` whose predicted statistics (on a face with skin `skin_lab`, where the
         imitator takes one) are closest to `target` (F,): Levenberg-Marquardt on [statistics - target;
         prior_weight (u - start)] inside the unit box, `held` dimensions fixed."""

@@ -54,6 +54,7 @@ PRIOR_WEIGHT = {"lipstick": 8.0, "hair": 2.0}
 # (+0.06 and -0.13 dB against the encoder alone at seeds 9001 and 4242).
 # Hair: the stage matches the hair to the swatch whatever the scene, and the fit gains (+8.7 dB).
 FAST_FITS = {"lipstick": False, "hair": True}
+HUE_TURNS = (0.0, 0.25, 0.5, 0.75)  # where on the hue circle Fast's colour fit starts, from the encoder's hue
 # The qualities the panel offers: those that beat the one below them on renders with the source hidden (light.md).
 # Lips: Better and Best fit the photo's colour on default faces, whose shape and light are not the photo's, and come
 # out 2-3 dB below Fast there (seeds 9001 and 4242); they stay on `vto match --quality`.
@@ -256,10 +257,10 @@ def fit_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start:
     target = region_statistics(*region)
     unit, wraps, held = fit_start(spec, start)
     skin = None if light is None else light[1]
-    # A hue is a turn: the encoder reads the hue of a near-grey hair (a cast of a few units of chroma) at random, and
-    # a fit from the wrong half of the circle settles elsewhere. The fit is also run from the opposite hue, and the one
-    # whose statistics come nearer the photo's is kept.
-    starts = [unit] + ([np.where(wraps, (unit + 0.5) % 1.0, unit)] if wraps.any() else [])
+    # A hue is a turn: the encoder reads the hue of a near-grey hair (a cast of a few units of chroma) at random, and a
+    # fit settles where it starts on the circle (the imitator does not wrap, so a fit does not cross hue 0). The fit is
+    # also run from the hue turned by quarter turns, and the one whose statistics come nearest the photo's is kept.
+    starts = [np.where(wraps, (unit + turn) % 1.0, unit) for turn in (HUE_TURNS if wraps.any() else (0.0,))]
     fits = [imitator.fit(target, begin, PRIOR_WEIGHT[spec.renderer], wraps, held, skin) for begin in starts]
     found = min(fits, key=lambda fit: float(np.sum((imitator.statistics(fit, skin) - target) ** 2)))
     fitted = spec.values(spec.denormalise(found))

@@ -156,9 +156,10 @@ def test_fast_keeps_the_lipstick_when_the_render_is_re_lit_warm(tmp_path):
     assert fast_moved < encoder_moved / 2, (fast_moved, encoder_moved)
 
 
-def test_fast_tries_the_opposite_hue_of_a_near_grey_hair():
-    """The encoder reads a grey hair's hue at random (here 0.47, a cyan cast at saturation 1.43): Fast's colour fit
-    also starts from the opposite hue and keeps the fit nearer the photo's statistics, nearer than one start gives."""
+def test_fast_starts_its_colour_fit_round_the_hue_circle():
+    """The encoder reads a near-grey hair's hue at random, and a fit settles where it starts on the circle: Fast's
+    colour fit also starts a quarter, a half and three quarters of a turn on, and keeps the fit nearest the photo's
+    statistics (a dark grey hair: 15x nearer than from the encoder's hue alone)."""
     from blender_addon.matching.photo_fit import PRIOR_WEIGHT, colour_imitator_path, fit_colour, fit_start
     from blender_addon.shipped import MODELS
     from vto_core.appearance import region_statistics
@@ -167,9 +168,9 @@ def test_fast_tries_the_opposite_hue_of_a_near_grey_hair():
 
     spec = EncoderSession(MODELS / "hair_encoder.onnx").spec
     shade = 1 + 0.15 * np.random.default_rng(0).standard_normal((48, 48, 1))
-    region = (np.clip(np.array([0.8, 0.78, 0.74]) * shade, 0, 1).astype(np.float32), np.ones((48, 48), np.float32))
-    start = {"brightness": 0.14, "contrast": 0.76, "exposure": 1.46, "gamma": 2.02, "hue": 0.47, "saturation": 1.43,
-             "shine": 0.25}
+    region = (np.clip(np.array([0.2, 0.18, 0.17]) * shade, 0, 1).astype(np.float32), np.ones((48, 48), np.float32))
+    start = {"brightness": -0.08, "contrast": 1.27, "exposure": 1.18, "gamma": 1.52, "hue": 0.07, "saturation": 0.63,
+             "shine": 0.21}
     imitator, target = cached_imitator(colour_imitator_path("hair")), region_statistics(*region)
     unit, wraps, held = fit_start(spec, start)
     one_start = imitator.fit(target, unit, PRIOR_WEIGHT["hair"], wraps, held)
@@ -178,5 +179,4 @@ def test_fast_tries_the_opposite_hue_of_a_near_grey_hair():
     def miss(u):
         return float(np.sum((imitator.statistics(u) - target) ** 2))
 
-    assert note == "" and miss(spec.normalise(spec.vector(fitted))) < 0.9 * miss(one_start)
-    assert abs((fitted["hue"] - 0.47 + 0.5) % 1 - 0.5) > 0.25  # from the other half of the circle
+    assert note == "" and miss(spec.normalise(spec.vector(fitted))) < 0.2 * miss(one_start)
