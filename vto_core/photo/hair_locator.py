@@ -14,6 +14,7 @@ sampled back onto the photo's pixels of that region, so the cost does not grow w
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -108,8 +109,10 @@ class Gaussian:
 
     def distance(self, lab: np.ndarray) -> np.ndarray:
         """(..., 3) -> (...) squared Mahalanobis distance from the mean."""
-        delta = lab - self.mean
-        return ((delta @ self.precision) * delta).sum(axis=-1)
+        d = [lab[..., i] - self.mean[i] for i in range(3)]  # the quadratic form written out: no BLAS call per pixel
+        p = self.precision
+        return (p[0, 0] * d[0] * d[0] + p[1, 1] * d[1] * d[1] + p[2, 2] * d[2] * d[2]
+                + 2 * (p[0, 1] * d[0] * d[1] + p[0, 2] * d[0] * d[2] + p[1, 2] * d[1] * d[2]))
 
     def log_likelihood(self, lab: np.ndarray) -> np.ndarray:
         """(..., 3) -> (...) log density up to a shared constant."""
@@ -150,13 +153,14 @@ class HairLocator:
                                frame.clothes())
         seeds = frame.seeds(oval, person >= PERSON, models["skin"].distance(lab) > SKIN_LIKE if "skin" in models
                             else np.ones_like(oval))
-        hair, seed, fringe = hair_seeds(lab, seeds, models, frame.inside)
+        others = others_likelihood(lab, models)
+        hair, seed, fringe = hair_seeds(lab, seeds, models, others, frame.inside)
         candidates = (person >= HAIR_CANDIDATE) & (~oval | fringe) & ~frame.under_chin()
         for _ in range(GROW_ROUNDS):
             parts = split_by_lightness(lab[hair])
             if not parts:
                 break
-            margin = hair_margin(lab, parts, models, frame.inside)
+            margin = hair_margin(lab, parts, others, frame.inside)
             hair = grow(seed & (margin > 0), candidates & (margin > 0))
         score = box_blur(np.where(hair, 1.0, 0.0), frame.inside)
         mask = frame.to_image(score)
@@ -191,20 +195,21 @@ def seed_problem(lab: np.ndarray, area: float, models: dict[str, Gaussian]) -> s
     return ""
 
 
-def hair_seeds(lab: np.ndarray, seeds: list[Seed], models: dict[str, Gaussian], inside: np.ndarray | None = None
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def hair_seeds(lab: np.ndarray, seeds: list[Seed], models: dict[str, Gaussian], others: np.ndarray | None = None,
+               inside: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(where the hair's colour is first fitted, where it grows from, the fringe's seed or none) (rows, cols) bool
     each, from the seeds that show hair (seed_problem). Where the band above the forehead shows it, the colour is
     fitted on it alone, and a seed elsewhere must be that hair's colour rather than another's (a headset, a collar);
     else on all the seeds that show hair. VtoError (the first seed's problem that is not the frame's, else the
-    frame's) where none shows hair. inside: the work pixels in the photo (None: all)."""
+    frame's) where none shows hair. others: others_likelihood(lab, models) (None: computed); inside: the work
+    pixels in the photo (None: all)."""
     problems = {seed.name: seed_problem(lab[seed.where], seed.area, models) for seed in seeds}
     shown = [seed for seed in seeds if not problems[seed.name]]
     if not shown:
         raise VtoError(next((p for p in problems.values() if p != OUT_OF_FRAME), OUT_OF_FRAME))
     if shown[0].name == "top":
         parts = split_by_lightness(lab[shown[0].where])
-        margin = hair_margin(lab, parts, models, inside)
+        margin = hair_margin(lab, parts, others_likelihood(lab, models) if others is None else others, inside)
         shown = shown[:1] + [seed for seed in shown[1:] if np.median(margin[seed.where]) > 0]
     fringe = next((seed.where for seed in shown if seed.name == "fringe"), np.zeros_like(seeds[0].where))
     every = np.logical_or.reduce([seed.where for seed in shown])
@@ -465,14 +470,20 @@ def split_by_lightness(hair: np.ndarray) -> list[Gaussian]:
     return [model for model in halves if model is not None]
 
 
-def hair_margin(lab: np.ndarray, hair_models: list[Gaussian], models: dict[str, Gaussian],
+def others_likelihood(lab: np.ndarray, models: dict[str, Gaussian]) -> np.ndarray:
+    """(rows, cols, 3) CIELAB -> (rows, cols) the best log-likelihood of the colour models that are not the hair's
+    (the skin, the background, the clothes); -inf where there are none."""
+    if not models:
+        return np.full(lab.shape[:2], -np.inf)
+    return functools.reduce(np.maximum, (model.log_likelihood(lab) for model in models.values()))
+
+
+def hair_margin(lab: np.ndarray, hair_models: list[Gaussian], others: np.ndarray,
                 inside: np.ndarray | None = None) -> np.ndarray:
-    """(rows, cols) the best hair model's log-likelihood less the best of the others', smoothed over 3 x 3 pixels of
-    those `inside` the photo (rows, cols) bool (None: all)."""
-    hair = np.max([model.log_likelihood(lab) for model in hair_models], axis=0)
-    others = [model.log_likelihood(lab) for model in models.values()]
-    best_other = np.max(others, axis=0) if others else np.full_like(hair, -np.inf)
-    return box_blur(np.clip(hair - best_other, -50, 50), inside)
+    """(rows, cols) the best hair model's log-likelihood less the others' (others_likelihood), smoothed over 3 x 3
+    pixels of those `inside` the photo (rows, cols) bool (None: all)."""
+    hair = functools.reduce(np.maximum, (model.log_likelihood(lab) for model in hair_models))
+    return box_blur(np.clip(hair - others, -50, 50), inside)
 
 
 def padding(rgb: np.ndarray, inside: np.ndarray) -> np.ndarray:
