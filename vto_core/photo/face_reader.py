@@ -257,8 +257,8 @@ def roll_of(landmarks: np.ndarray) -> float:
 
 
 def face_size(landmarks: np.ndarray) -> float:
-    """A face's size in pixels from its (468, 2) landmarks, the same at any roll: the root of the landmarks' spread
-    (the square root of their covariance's determinant, square-rooted)."""
+    """A face's size in pixels from its (468, 2) landmarks, the same at any roll: det(cov(landmarks)) ** (1/4), the
+    geometric mean of the landmarks' spreads along their two principal axes."""
     return float(np.linalg.det(np.cov(landmarks.astype(np.float64), rowvar=False))) ** 0.25
 
 

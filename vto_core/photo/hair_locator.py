@@ -149,8 +149,8 @@ class HairLocator:
         person = frame.sample_person(self.person(image, frame.segmenter_matrix()))
         lab = srgb_to_lab(rgb).astype(np.float64)
         oval = frame.polygon(face.landmarks[FACE_OVAL])
-        models = colour_models(lab, oval & ~frame.above_brows(), np.where(frame.inside, person, np.nan),
-                               frame.clothes())
+        in_photo = np.where(frame.inside, person, np.nan)  # beyond the photo: neither the person nor the background
+        models = colour_models(lab, oval & ~frame.above_brows(), in_photo, frame.clothes())
         seeds = frame.seeds(oval, person >= PERSON, models["skin"].distance(lab) > SKIN_LIKE if "skin" in models
                             else np.ones_like(oval))
         others = others_likelihood(lab, models)
@@ -243,8 +243,8 @@ class HeadFrame:
         self.low = np.maximum(along.min(axis=0), photo.min(axis=0))  # the region's box, cut to the photo's
         self.high = np.maximum(np.minimum(along.max(axis=0), photo.max(axis=0)), self.low)
         self.cols, self.rows = (max(1, round(float(v))) for v in (self.high - self.low) * self.scale)
-        cols, rows = self.from_work(*np.meshgrid(np.arange(self.cols) + 0.5, np.arange(self.rows) + 0.5))
-        self.xs, self.ys = cols, rows  # (rows, cols) photo coordinates of the work pixels' centres
+        # (rows, cols) photo coordinates of the work pixels' centres
+        self.xs, self.ys = self.from_work(*np.meshgrid(np.arange(self.cols) + 0.5, np.arange(self.rows) + 0.5))
         self.inside = (self.xs >= 0) & (self.xs < width) & (self.ys >= 0) & (self.ys < height)
         offset = np.stack([self.xs, self.ys], -1) - self.centre
         self.along_up = offset @ self.up / self.face_height  # face heights above the face's centre
