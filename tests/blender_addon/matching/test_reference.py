@@ -273,7 +273,7 @@ def test_a_tilted_head_is_framed_upright_for_lips_and_hair(degrees):
     assert turned_hair.turn == pytest.approx(turned.turn)
     colours = [srgb_to_lab(r.image.mean(axis=(0, 1))) for r in (hair, turned_hair)]
     assert np.linalg.norm(colours[0] - colours[1]) < 3.0
-    # All the hair found, the canvas's black corners left out: within 0.32 CIELAB of upright (0.54 with them in).
+    # All the hair found, the canvas's black corners left out: within 0.36 CIELAB of upright (0.50-0.55 with them in).
     assert np.linalg.norm(lips_lab(hair) - lips_lab(turned_hair)) < 0.45
 
 
