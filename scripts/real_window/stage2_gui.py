@@ -188,6 +188,25 @@ def click_match(props, inputs, name, wait=5.0, running_shot=None):
     return inputs(), ms
 
 
+def button_when_drawn(area, shot, seconds=15.0):
+    """find_button on a fresh screenshot of `area`, again every half second while the panel has not drawn its buttons
+    yet (on two busy cores the panel lays out after Match's preview a few seconds late). A generator: returns (x, y)."""
+    for attempt in range(int(seconds * 2) + 1):
+        area.tag_redraw()
+        if attempt:
+            yield 0.5
+        grab(shot, region_of(area))
+        try:
+            found = find_button(region_of(area), shot)
+        except RuntimeError:
+            if attempt == int(seconds * 2):
+                raise
+            continue
+        if attempt:
+            log(f"(the buttons were drawn after {attempt / 2:.1f} s more)")
+        return found
+
+
 def retrying(action):
     """Run `action` once Blender allows writing ID data (not while a material preview renders)."""
     refusal = ""
@@ -322,10 +341,9 @@ def script():
     yield 0.5
     first, first_ms = yield from click_match(lips_props, lips_inputs, "lips click 1")
     yield 1.0
-    grab("lips_after", region_of(props_area))
-    shown = extension("ui.preview").shown(lips_material())  # Preview on Photo, made after Match ...
+    x, y = yield from button_when_drawn(props_area, "lips_after")  # Match, below the preview that moves it down
+    shown = extension("ui.preview").shown(lips_material())  # Preview on Photo, made after Match
     RESULT["preview_after_match"] = {"icon": int(shown[0]), "note": shown[1]}
-    x, y = find_button(region_of(props_area), "lips_after")  # ... above Match, which it moves down
     yield from undo()
     undone = lips_inputs()
     RESULT["reference_after_undo"] = lips_props().image_path
