@@ -24,6 +24,7 @@ INPUT_NAME, OUTPUT_NAME = "params_unit", "statistics"
 SKIN_SCALE = 100.0  # the skin's CIELAB enters the network divided by this
 KIND = "colour_imitator"
 STEP = 1e-3  # the fit's finite-difference step in unit space (the network is smooth)
+SETTLED = 1e-6  # a fit whose steps gain less than this share of its cost three times in a row has settled
 
 
 class ColourImitator:
@@ -53,39 +54,52 @@ class ColourImitator:
     def fit(self, target: np.ndarray, start: np.ndarray, prior_weight: float, wraps: np.ndarray,
             held: dict[int, float] | None = None, skin_lab: np.ndarray | None = None,
             iterations: int = 40) -> np.ndarray:  # 12 left dark hair short of where it settles
-        """The unit vector (m,) near `start` whose predicted statistics (on a face with skin `skin_lab`, where the
+        """The unit vector (m,) near `start` (m,) whose predicted statistics (on a face with skin `skin_lab`, where the
         imitator takes one) are closest to `target` (F,): Levenberg-Marquardt on [statistics - target;
-        prior_weight (u - start)] inside the unit box, `held` dimensions fixed."""
+        prior_weight (u - start)] inside the unit box, `held` dimensions fixed. Starts (S, m) give S fits (S, m), each
+        near its own start, run side by side (two network calls a step for all of them)."""
         target = np.asarray(target, np.float64)
         if not np.isfinite(target).all():
             raise VtoError("the colour imitator's fit needs finite target statistics")
-        start = np.asarray(start, np.float64).copy()
+        starts = np.atleast_2d(np.asarray(start, np.float64)).copy()  # (S, m)
         for i, value in (held or {}).items():
-            start[i] = value
-        free = np.array([i not in (held or {}) for i in range(start.size)])
+            starts[:, i] = value
+        count, size = starts.shape
+        free = np.array([i not in (held or {}) for i in range(size)])
         wraps = np.asarray(wraps, bool)
 
-        def residual(units: np.ndarray) -> np.ndarray:  # (k, m) -> (k, F + m)
-            shift = units - start
+        def residual(units: np.ndarray) -> np.ndarray:  # (S, k, m) -> (S, k, F + m)
+            shift = units - starts[:, None]
             shift = np.where(wraps, (shift + 0.5) % 1.0 - 0.5, shift)
-            return np.concatenate([self.statistics(units, skin_lab) - target, prior_weight * shift], axis=1)
+            seen = self.statistics(units.reshape(-1, size), skin_lab).reshape(count, units.shape[1], -1)
+            return np.concatenate([seen - target, prior_weight * shift], axis=2)
 
-        unit, damping = start.copy(), 1e-2
-        current = residual(unit[None])[0]
+        unit, damping = starts.copy(), np.full(count, 1e-2)
+        current = residual(unit[:, None])[:, 0]  # (S, F + m)
+        steps = STEP * np.eye(size)[free]  # (f, m)
+        stalled = np.zeros(count, int)  # steps in a row that gained less than SETTLED of the cost, per fit
         for _ in range(iterations):
-            probes = unit + STEP * np.eye(unit.size)[free]
-            jacobian = ((residual(probes) - current) / STEP).T  # (F + m, free)
-            gram = jacobian.T @ jacobian
-            move = -np.linalg.solve(gram + damping * np.diag(np.diag(gram) + 1e-9), jacobian.T @ current)
+            if (stalled >= 3).all():
+                break
+            jacobian = (residual(unit[:, None] + steps) - current[:, None]) / STEP  # (S, f, F + m): rows per probe
+            gram = jacobian @ jacobian.transpose(0, 2, 1)  # (S, f, f)
+            scale = np.diagonal(gram, axis1=1, axis2=2) + 1e-9
+            lhs = gram + damping[:, None, None] * (np.eye(len(steps)) * scale[:, None, :])
+            move = -np.linalg.solve(lhs, (jacobian @ current[..., None]))[..., 0]  # (S, f)
             trial = unit.copy()
-            trial[free] += move
+            trial[:, free] += move
             trial = np.where(wraps, np.mod(trial, 1.0), np.clip(trial, 0.0, 1.0))
-            trial_residual = residual(trial[None])[0]
-            if trial_residual @ trial_residual < current @ current:
-                unit, current, damping = trial, trial_residual, max(damping / 3, 1e-6)
-            else:
-                damping = min(damping * 4, 1e6)
-        return unit
+            trial_residual = residual(trial[:, None])[:, 0]
+            cost, trial_cost = (current ** 2).sum(axis=1), (trial_residual ** 2).sum(axis=1)
+            better = trial_cost < cost
+            # A rejected step only raises the damping; a fit has settled when its accepted steps gain next to nothing
+            # or its damping is at the ceiling.
+            small = better & (cost - trial_cost <= SETTLED * cost)
+            stalled = np.where(better & ~small, 0, stalled + (small | (~better & (damping >= 1e6))))
+            unit = np.where(better[:, None], trial, unit)
+            current = np.where(better[:, None], trial_residual, current)
+            damping = np.where(better, np.maximum(damping / 3, 1e-6), np.minimum(damping * 4, 1e6))
+        return unit if np.ndim(start) == 2 else unit[0]
 
 
 _IMITATORS: dict[tuple[str, int], ColourImitator] = {}

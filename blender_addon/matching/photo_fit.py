@@ -260,9 +260,9 @@ def fit_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start:
     # A hue is a turn: the encoder reads the hue of a near-grey hair (a cast of a few units of chroma) at random, and a
     # fit settles where it starts on the circle (the imitator does not wrap, so a fit does not cross hue 0). The fit is
     # also run from the hue turned by quarter turns, and the one whose statistics come nearest the photo's is kept.
-    starts = [np.where(wraps, (unit + turn) % 1.0, unit) for turn in (HUE_TURNS if wraps.any() else (0.0,))]
-    fits = [imitator.fit(target, begin, PRIOR_WEIGHT[spec.renderer], wraps, held, skin) for begin in starts]
-    found = min(fits, key=lambda fit: float(np.sum((imitator.statistics(fit, skin) - target) ** 2)))
+    starts = np.stack([np.where(wraps, (unit + turn) % 1.0, unit) for turn in (HUE_TURNS if wraps.any() else (0.0,))])
+    fits = imitator.fit(target, starts, PRIOR_WEIGHT[spec.renderer], wraps, held, skin)
+    found = fits[np.argmin(((imitator.statistics(fits, skin) - target) ** 2).sum(axis=1))]
     fitted = spec.values(spec.denormalise(found))
     return {name: float(fitted[name]) for name in spec.modelled}, ""
 

@@ -100,3 +100,13 @@ def test_a_skin_conditioned_imitator_reads_the_skin_or_a_typical_one(tmp_path):
     assert imitator.statistics(np.array([0.2, 0.4]))[0] == pytest.approx(20.0, abs=1e-4)  # the typical skin
     assert imitator.statistics(np.array([0.2, 0.4]), np.array([40.0, 10.0, 30.0]))[0] == pytest.approx(30.0,
                                                                                                        abs=1e-4)
+
+
+def test_starts_side_by_side_fit_as_each_alone(imitator):
+    target = np.array([0.9, 0.2, 0.4]) @ WEIGHTS + BIAS
+    starts = np.array([[0.5, 0.5, 0.5], [0.1, 0.9, 0.2], [0.8, 0.1, 0.9]])
+    wraps = np.array([False, True, False])
+    together = imitator.fit(target, starts, 2.0, wraps, held={2: 0.3})
+    alone = np.stack([imitator.fit(target, start, 2.0, wraps, held={2: 0.3}) for start in starts])
+    assert together.shape == (3, 3) and np.abs(together - alone).max() < 1e-6
+    assert (together[:, 2] == 0.3).all()
