@@ -26,7 +26,7 @@ import numpy as np
 
 from vto_core.cli import ArgumentParser
 from vto_core.dataset import DEFAULT_SAMPLES, write_text_atomic
-from vto_core.errors import VtoError
+from vto_core.errors import VtoError, failure_line
 from vto_core.imageio import write_image
 from vto_core.inference import EncoderSession
 from vto_core.specs import ParamSpec, RendererSpec
@@ -260,8 +260,7 @@ def sheet_cells(renderer: str, presets: dict, products: dict[str, list[Path]], a
             tryons[name] = tryon_view(reference.whole, presets[name], args.res, min(args.samples, TRYON_SAMPLES),
                                       args.seed)
         except Exception as exc:  # VtoError 'no face found ...', or a render that failed: the sheet goes on
-            first = (str(exc).splitlines() or [""])[0]
-            missing[name] = first if isinstance(exc, VtoError) else f"{type(exc).__name__}: {first}"
+            missing[name] = failure_line(exc)
     return references, tryons, missing
 
 

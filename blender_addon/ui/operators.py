@@ -8,7 +8,7 @@ import time
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, StringProperty
 
-from vto_core.errors import VtoError
+from vto_core.errors import VtoError, failure_line
 
 from ..matching import apply
 from ..matching.photo_fit import OFFERED
@@ -121,8 +121,7 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
 
     def fail(self, exc: Exception) -> set:
         """One line in the report; nothing was written."""
-        text = str(exc) if isinstance(exc, VtoError) else f"{type(exc).__name__}: {(str(exc).splitlines() or [''])[0]}"
-        self.report({"ERROR"}, text)
+        self.report({"ERROR"}, failure_line(exc))
         return {"CANCELLED"}
 
     def done(self, job, stored, values) -> set:

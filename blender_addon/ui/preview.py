@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vto_core.errors import VtoError
+from vto_core.errors import VtoError, failure_line
 from vto_core.specs import get_spec
 
 from ..matching.apply import lipstick_nodes
@@ -40,8 +40,7 @@ def refresh(material, photo: np.ndarray | None = None) -> tuple[int, str]:
         photo = reference_pixels(material.vto_match) if photo is None else photo
         picture = compose(photo, material_values(material))
     except Exception as exc:  # VtoError, or a render that failed: the panel says why, Match is not undone
-        text = str(exc) if isinstance(exc, VtoError) else f"{type(exc).__name__}: {(str(exc).splitlines() or [''])[0]}"
-        _made[material.name] = (0, text, None)
+        _made[material.name] = (0, failure_line(exc), None)
         return shown(material)
     # headless, Blender gives preview images icon id 0: the picture is kept for what reads it
     _made[material.name] = (preview_icon(f"tryon:{material.name}", picture), "", picture)
