@@ -42,6 +42,12 @@ def load_frozen_imitator(run_path: str, spec: RendererSpec, device: str,
     return imitator
 
 
+def new_encoder(spec: RendererSpec, config: EncoderConfig) -> Encoder:
+    """The untrained encoder `config` describes for `spec`'s parameters."""
+    return Encoder(spec.size, config.width, config.n_layers, pool_size=config.pool_size, blocks=config.blocks,
+                   batch_norm=int(config.batch_norm))
+
+
 def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: EncoderConfig, wraps=None,
                    weights=None, colour_net=None):
     """g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g), colour loss through the
@@ -105,9 +111,7 @@ def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], 
     if config.init:  # fine-tuning: refused here, before a run folder exists, for another spec or network
         from .export import onnx_encoder_weights
 
-        initial = onnx_encoder_weights(config.init, Encoder(reader.spec.size, config.width, config.n_layers,
-                                                            pool_size=config.pool_size, blocks=config.blocks,
-                                                            batch_norm=int(config.batch_norm)), reader.spec)
+        initial = onnx_encoder_weights(config.init, new_encoder(reader.spec, config), reader.spec)
     colour_net = None
     if config.lambda_colour > 0:
         from .export import onnx_colour_net
@@ -129,8 +133,7 @@ def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], 
 
     # 2. Encoder, perceptual distance, optimiser; resume (weights, optimiser and the data order).
     perceptual = PerceptualDistance(config.perceptual, config.vgg_weights or None).to(device) if use_rendering else None
-    encoder = Encoder(reader.spec.size, config.width, config.n_layers, pool_size=config.pool_size, blocks=config.blocks,
-                      batch_norm=int(config.batch_norm)).to(device)
+    encoder = new_encoder(reader.spec, config).to(device)
     optimiser = torch.optim.Adam(encoder.parameters(), lr=config.lr, betas=(config.beta1, config.beta2))
     global_batch = per_process_batch(config.batch_size, len(train_set), procs.world_size) * procs.world_size
     step, position = 0, 0
