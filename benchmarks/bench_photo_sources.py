@@ -31,7 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.bench_real_photos import delta_e
 from benchmarks.common import RESULTS, table, write_section
+from vto_core.metrics import psnr
 
 ROOT = Path(__file__).resolve().parent.parent
 FACES = ROOT / "data" / "faces"
@@ -63,12 +65,6 @@ def lab(colour: np.ndarray) -> np.ndarray:
     return np.asarray(srgb_to_lab(np.asarray(colour, np.float32)), np.float64)
 
 
-def delta_e(a: np.ndarray, b: np.ndarray) -> float:
-    from vto_core.colour import ciede2000
-
-    return float(ciede2000(lab(a), lab(b)))
-
-
 class Renders:
     """Default-scene renders of looks on sources (64 px, 16 spp), kept by look."""
 
@@ -88,11 +84,6 @@ class Renders:
         from vto_core.appearance import mean_colour
 
         return np.median([mean_colour(rgb, mask) for rgb, mask in self(values, sources)], axis=0)
-
-
-def psnr(a: np.ndarray, b: np.ndarray) -> float:
-    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
-    return 10 * np.log10(1.0 / max(mse, 1e-10))
 
 
 def held_out_faces(count: int) -> list[dict]:
