@@ -408,8 +408,9 @@ class FaceReader:
         faces near upright, finds only in part); the surest reading is kept, and among equals the one whose view saw
         the face nearest upright."""
         image = as_rgb(image)
-        readings = [reading for reading in [self.read_view(image)] if reading is not None]
-        if not readings or not readings[0][1] or readings[0][2]:
+        first = self.read_view(image)
+        readings = [] if first is None else [first]
+        if first is None or not first[1] or first[2]:  # no face upright, one not kept, or one turned over
             for quarter_turns in QUARTER_TURNS:
                 reading = self.read_view(np.rot90(image, quarter_turns), tiles=bool(readings))
                 if reading is not None:

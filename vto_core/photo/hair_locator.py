@@ -270,8 +270,6 @@ class HeadFrame:
         """(H, W, 3) -> (rows, cols, 3) float32 the region on the work grid (block means, then bilinear; black
         outside the photo)."""
         x0, y0, w, h = self.box
-        if w < 1 or h < 1:
-            return np.zeros((self.rows, self.cols, 3), np.float32)
         factor = max(1, int(1 / self.scale))
         region = reduce(image[y0:y0 + h, x0:x0 + w], factor)
         return np.clip(sample_bilinear(region, (self.xs - x0) / factor, (self.ys - y0) / factor), 0, 1
