@@ -92,6 +92,8 @@ def held_out_faces(count: int) -> list[dict]:
 
 
 ESTIMATES: dict[str, list] = {}  # (model digest, photo, quality) -> [params, ms]; kept in --work between runs
+KEPT: list[Path] = []  # where ESTIMATES are kept (--work/estimates.json), written every KEEP_EVERY new estimates
+KEEP_EVERY = 10
 
 
 def estimate(model: Path, path: Path, quality: str) -> tuple[dict[str, float], float]:
@@ -104,6 +106,8 @@ def estimate(model: Path, path: Path, quality: str) -> tuple[dict[str, float], f
         started = time.perf_counter()
         result = match(str(model), str(path), quality=quality)
         ESTIMATES[key] = [result["params"], 1000 * (time.perf_counter() - started)]
+        if KEPT and len(ESTIMATES) % KEEP_EVERY == 0:  # a long run stopped halfway keeps what it measured
+            KEPT[0].write_text(json.dumps(ESTIMATES))
     return ESTIMATES[key][0], ESTIMATES[key][1]
 
 
@@ -288,9 +292,9 @@ def sweep(models: dict[str, Path], work: Path, renders: Renders) -> str:
         table(["portrait", *labels], [[s, *[by.get(k, "-") for k in labels]] for s, by in by_photo.items()])])
 
 
-def picture(models: dict[str, Path], faces: int, out: Path) -> str:
-    """Part (d): per held-out face, its photo around the lips | each model's Fast tried on it | each estimate on the
-    default lips (source 0)."""
+def picture(models: dict[str, Path], qualities: list[str], faces: int, out: Path) -> str:
+    """Part (d): per held-out face, its photo around the lips | each model's Fast (and the new one's other
+    `qualities`) tried on it | each estimate on the default lips (source 0)."""
     from blender_addon.renderers.lipstick import render_lipstick
     from blender_addon.renderers.tryon import tryon_view
     from vto_core.imageio import read_image, write_image
@@ -299,16 +303,18 @@ def picture(models: dict[str, Path], faces: int, out: Path) -> str:
     for entry in held_out_faces(faces):
         path = ROOT / entry["file"]
         photo = read_image(path)[0][..., :3]
-        estimates = {label: estimate(model, path, "fast")[0] for label, model in models.items()}
+        estimates = {f"{label} Fast": estimate(model, path, "fast")[0] for label, model in models.items()}
+        estimates.update({f"new {quality.title()}": estimate(models["new"], path, quality)[0]
+                          for quality in qualities if quality != "fast"})
         cells = [tryon_view(photo, next(iter(estimates.values())), size, TRYON_SAMPLES, 0)[0]]
         cells += [tryon_view(photo, values, size, TRYON_SAMPLES, 0)[1] for values in estimates.values()]
         cells += [render_lipstick(values, 0, size, TRYON_SAMPLES, 0) for values in estimates.values()]
         rows.append(np.concatenate(cells, axis=1))
     write_image(out, np.concatenate(rows, axis=0))
-    labels = list(models)
+    labels = list(estimates)
     return (f"![held-out faces]({out.name})\n\n*Each held-out face (its own lips, some wearing a lipstick of their "
-            f"own): the photo | {' | '.join(f'{label} Fast tried on it' for label in labels)} | "
-            f"{' | '.join(f'{label} Fast on the default lips' for label in labels)}.*")
+            f"own): the photo | {' | '.join(f'{label} tried on it' for label in labels)} | "
+            f"{' | '.join(f'{label} on the default lips' for label in labels)}.*")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -329,6 +335,7 @@ def main(argv: list[str] | None = None) -> None:
     renders = Renders()
     kept = work / "estimates.json"
     ESTIMATES.update(json.loads(kept.read_text()) if kept.exists() else {})
+    KEPT[:] = [kept]
     parts = args.parts.split(",")
     command = (f"python -m benchmarks.bench_photo_sources --parts {args.parts} --qualities {args.qualities} "
                f"--faces {args.faces} --products {args.products}")
@@ -346,7 +353,7 @@ def main(argv: list[str] | None = None) -> None:
         write_section("photo_sources", "sweep", heading + sweep(models, work, renders), Path(args.results))
         kept.write_text(json.dumps(ESTIMATES))
     if "picture" in parts:
-        write_section("photo_sources", "picture", heading + picture(models, args.faces,
+        write_section("photo_sources", "picture", heading + picture(models, qualities, args.faces,
                                                                      Path(args.results) / "photo_sources.png"),
                       Path(args.results))
     kept.write_text(json.dumps(ESTIMATES))

@@ -65,6 +65,8 @@ def main() -> None:
     hair = window.get("hair", {})
     rows += [[f"hair Fast, Compositor sidebar, click {i + 1} (the hair found in the whole portrait)", f"{ms:.1f}"]
              for i, ms in enumerate(hair.get("ms", []))]
+    rows += [["lipstick Better, fitted in the photo's own scene (25 renders)", f"{ms:,.0f}"]
+             for ms in lips.get("better_ms", [])]
     better = hair.get("better_ms", [])
     rows += [["hair Better, Compositor sidebar (the first: renders its 2 hair regions first)", f"{ms:,.0f}"]
              for ms in better]
@@ -86,8 +88,8 @@ def main() -> None:
         + "\n\nThe reference is scikit-image's astronaut portrait (NASA, public domain), whole, 512 x 512 px"
         + (f"; the add-on found her lips at x, y, w, h = {tuple(found['box'])} and read the {found['frame'][2]} px "
            f"square {tuple(found['frame'])} around them" if found else "")
-        + f". Match (Fast) with the shipped model wrote {shade(lips['first'])}. Lips are offered Fast only: "
-        + f"\"{lips.get('not_offered', '')}\"."
+        + f". Match (Fast) with the shipped model wrote {shade(lips['first'])}"
+        + (f"; Better wrote {shade(lips['better'])}" if "better" in lips else "") + "."
         + " The hair reference is the same whole portrait"
         + (f"; the add-on found her hair in the box {tuple(hair['found']['box'])} ({hair['found']['share']:.1%} of "
            f"the photo) and its thumbnail said \"{hair.get('thumbnail_note', '')}\"" if "found" in hair else "")

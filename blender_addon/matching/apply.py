@@ -183,7 +183,7 @@ def iter_compute(prepared: dict):
 
         with scratch_data():  # the default scenes the fit renders leave nothing in the artist's .blend
             values = yield from iter_fit_photo(spec, reference.region, encoder, prepared["quality"],
-                                               others=(values,))
+                                               others=(values,), photo=(reference.whole, reference.lips))
         values = photo_values(spec, values)
     return values
 

@@ -11,6 +11,10 @@ the default scene's lips (or hair) show the photo's statistics. Fast asks the co
 fit), the lips on the sources whose skin looks most like the photo's, their skin and bare lips toned so the render's
 skin shows the photo's skin colour (the scene's light and skin fitted as far as the skin shows them). Those sources are
 seeds of their own (LIPS_POOL, FIT_SOURCES), never the ones the benchmarks measure the estimate on.
+
+Lips of a face in a portrait do have a scene: Better and Best then fit there instead, pixel by pixel, each candidate
+tried on the photo's own lips (blender_addon.matching.photo_scene_fit). The default-scene fit is left for lips without
+a face (a close-up, a mask) or without skin beside them.
 """
 
 from __future__ import annotations
@@ -39,9 +43,9 @@ NO_REGION = ("fits the colour of the lips and needs to know where they are: let 
 # Quality -> (sources, renders in all). Lipstick renders cost ~0.15 s at 64 px; the hair stage ~10 ms a source.
 FIT_QUALITY = {"lipstick": {"BETTER": (1, 25), "BEST": (2, 100)}, "hair": {"BETTER": (2, 100), "BEST": (4, 400)}}
 # (seconds, seconds the first time in a session) each takes on a 2-core CPU, what the panel tells the artist:
-# benchmarks/results/real_photos.md and real_window.md, rounded up. The first fit also renders its default sources
-# (lips: a pool of 24, bare and masked; hair: its regions).
-FIT_SECONDS = {"lipstick": {"BETTER": (4, 17), "BEST": (11, 24)}, "hair": {"BETTER": (2, 6), "BEST": (6, 10)}}
+# benchmarks/results/photo_sources.md and real_window.md, rounded up. Lips: fitted in the photo's own scene
+# (photo_scene_fit: 25 renders at 64 px, 100 at 96 px); hair: its first fit also renders its default regions.
+FIT_SECONDS = {"lipstick": {"BETTER": (3, 5), "BEST": (15, 18)}, "hair": {"BETTER": (2, 6), "BEST": (6, 10)}}
 FIT_RES = 64
 # The statistics leave looks ambiguous (a thin white layer with a strong coat can show the lips' colour too): each
 # unit of distance from the fit's start (the encoder's estimate or Fast's) costs this many CIELAB units, so the fit
@@ -55,11 +59,11 @@ PRIOR_WEIGHT = {"lipstick": 8.0, "hair": 2.0}
 # Hair: the stage matches the hair to the swatch whatever the scene, and the fit gains (+9.6 dB, hair_encoder.md).
 FAST_FITS = {"lipstick": False, "hair": True}
 HUE_TURNS = (0.0, 0.25, 0.5, 0.75)  # where on the hue circle Fast's colour fit starts, from the encoder's hue
-# The qualities the panel offers: those that beat the one below them on renders with the source hidden (light.md).
-# Lips: Better and Best fit the photo's colour on default faces, whose shape and light are not the photo's, and come
-# out 2-3 dB below Fast there (seeds 9001 and 4242); they stay on `vto match --quality`.
-OFFERED = {"lipstick": ("FAST",), "hair": QUALITIES}
-NOT_OFFERED = {"lipstick": "Better, Best: below Fast for lips"}
+# The qualities the panel offers: those that beat the one below them. Hair: on renders with the source hidden
+# (light.md). Lips: on products tried on the held-out faces and read back (photo_sources.md, the round trip), where
+# Better and Best fit in the photo's own scene; the default-scene fit they fall back to without a face came out 2-3 dB
+# below Fast on default renders (seeds 9001 and 4242).
+OFFERED = {"lipstick": QUALITIES, "hair": QUALITIES}
 
 
 def parameter_difference(unit: np.ndarray, start: np.ndarray, wraps: np.ndarray) -> np.ndarray:
@@ -165,7 +169,8 @@ def iter_lips_fit_sources(region: tuple[np.ndarray, np.ndarray], count: int, res
 
 
 def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float], quality: str,
-                   res: int = FIT_RES, samples: int = DEFAULT_SAMPLES, others: tuple[dict[str, float], ...] = ()):
+                   res: int = FIT_RES, samples: int = DEFAULT_SAMPLES, others: tuple[dict[str, float], ...] = (),
+                   photo: tuple[np.ndarray, object] | None = None):
     """Fit the modelled parameters so the default scene's lips (or hair) show the colour statistics
     (vto_core.appearance.region_statistics) of `region` (the photo (H, W, 3) and its lips or hair mask (H, W)), with
     the sources and renders of FIT_QUALITY[renderer][quality].
@@ -178,6 +183,8 @@ def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
     Lips: the sources are those of LIPS_POOL whose skin looks most like the photo's, toned so their skin shows the
     photo's skin colour (a scene whose light and skin tone are fitted, as far as the skin shows them; the bare lips
     follow the skin). Hair: FIT_SOURCES' hair regions, as rendered.
+    photo: (the whole photo (H, W, 3), the lips found in it): lips of a face are fitted in the photo's own scene
+    instead (blender_addon.matching.photo_scene_fit), from Fast's estimate (the last of `others`, else `start`).
     A generator: yields renders made so far (0 while the first fit of a session renders its lips sources); returns
     the fitted modelled values (raw, inside their ranges).
     """
@@ -188,6 +195,12 @@ def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
     table = FIT_QUALITY[spec.renderer]
     if quality not in table:
         raise VtoError(f"a photo fit's quality is {' or '.join(table)}, got '{quality}'")
+    if spec.renderer == "lipstick" and photo is not None:
+        from .photo_scene_fit import SCENE_FIT, iter_fit_photo_scene, scene_target
+
+        target = scene_target(*photo, SCENE_FIT[quality][0])
+        if target is not None:
+            return (yield from iter_fit_photo_scene(spec, target, (others or (start,))[-1], quality, samples))
     count, renders = table[quality]
     if spec.renderer == "lipstick":
         sources = yield from iter_lips_fit_sources(region, count, res, samples)

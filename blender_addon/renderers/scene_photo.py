@@ -92,6 +92,11 @@ def set_light_and_lips(scene: bpy.types.Scene, cast: np.ndarray, albedo: np.ndar
     bpy.data.objects[KEY].data.color = colour[:3]
     face = bpy.data.materials[SKIN].node_tree.nodes["Principled BSDF"]
     face.inputs["Base Color"].default_value = tuple(float(c) for c in np.clip(skin, 0.01, 0.95)) + (1.0,)
+    set_bare_lips(albedo)
+
+
+def set_bare_lips(albedo: np.ndarray) -> None:
+    """The bare lips' albedo (3,) linear, under the layer."""
     bare = bpy.data.materials[LIPS_MATERIAL].node_tree.nodes["Bare Lips"]
     bare.inputs["Base Color"].default_value = tuple(float(c) for c in np.clip(albedo, 0.01, 0.95)) + (1.0,)
 

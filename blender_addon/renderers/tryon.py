@@ -46,6 +46,12 @@ def find_lips(photo: np.ndarray):
         lips = locate_lips(photo)
     except VtoError:
         lips = None
+    return lips_to_render(lips)
+
+
+def lips_to_render(lips):
+    """`lips` (vto_core.photo.lips_locator.LipsFound, or None) where they are a face's lips wide enough to render
+    onto; VtoError 'no face found ...' where not."""
     if lips is None or lips.how != "face":
         raise VtoError("no face found: the lipstick is tried on the lips of a face; choose a portrait")
     outer = np.asarray(lips.outer, np.float64)
@@ -71,11 +77,11 @@ class PhotoLips:
     mask: np.ndarray  # (n, n) the lips in the frame
 
 
-def photo_lips(photo: np.ndarray, n: int | None = None) -> PhotoLips:
-    """The lips of the largest face of (H, W, 3) display, framed at n x n px (None: the frame's own size, at most
-    2 x MAX_RENDER). VtoError 'no face found ...' (find_lips)."""
+def photo_lips(photo: np.ndarray, n: int | None = None, lips=None) -> PhotoLips:
+    """The lips of the largest face of (H, W, 3) display (or `lips`, found in it before), framed at n x n px (None:
+    the frame's own size, at most 2 x MAX_RENDER). VtoError 'no face found ...' (find_lips, lips_to_render)."""
     photo = clean_photo(photo)  # no copy of a clean photo (a 64-megapixel one is 768 MB)
-    lips = find_lips(photo)
+    lips = find_lips(photo) if lips is None else lips_to_render(lips)
     view, size, _ = lips_view(lips)
     n = n or min(size, MAX_RENDER * 2)
     view = view.copy()

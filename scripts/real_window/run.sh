@@ -1,7 +1,7 @@
 #!/bin/bash
 # The extension in a real Blender window: Debian trixie's Blender 4.3.2 (Python 3.13) under Xvfb, in a chroot.
 # Builds the linux-x64 zip, installs it from disk as an artist does (no hand edits), opens a .blend with a lips
-# material, presses Match (Fast) in the Material tab on a whole portrait and Match (Fast, then Better) in the
+# material, presses Match (Fast, then Better) in the Material tab on a whole portrait and Match (Fast, then Better) in the
 # Compositor's sidebar on a patch of hair, with real X11 clicks (xdotool), undoes with a real ctrl+z, and saves
 # screenshots and result.json in OUT.   Needs root (chroot, mounts).
 #   usage: bash scripts/real_window/run.sh [OUT]     (default /work/cache/real-blender/out; about 3 min with the
@@ -52,8 +52,8 @@ cp "$P"/out/* "$OUT/"
 grep -h "^RESULT\|^STEP" "$OUT/stage1.log" "$OUT/stage2.log" | cut -c1-200
 ls "$OUT"/result.json
 if [ "${VTO_UPDATE_DOCS:-0}" = 1 ]; then
-    for pair in lips_before:panel_before_match lips_after:panel_after_match hair_better:panel_hair_after_better \
-                hair_after:panel_hair_after_match; do
+    for pair in lips_before:panel_before_match lips_after:panel_after_match lips_better:panel_after_better \
+                hair_better:panel_hair_after_better hair_after:panel_hair_after_match; do
         cp "$OUT/${pair%%:*}_panel.png" "$PROJECT/docs/${pair#*:}.png"
     done
 fi

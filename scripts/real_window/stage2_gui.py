@@ -363,9 +363,29 @@ def script():
     except Exception as exc:  # noqa: BLE001  (recorded, not fatal: the screenshots show the outline)
         RESULT["errors"].append(f"lips box: {type(exc).__name__}: {exc}")
 
-    # Lips offer Fast only (the panel draws no Quality row for them, and says why: photo_fit.OFFERED).
+    # The qualities lips are offered (photo_fit.OFFERED); where Better is one, a real click on it, then Match: the fit
+    # in the photo's own scene runs as a modal operator.
     lips["offered"] = list(extension("matching.photo_fit").OFFERED["lipstick"])
-    lips["not_offered"] = extension("matching.photo_fit").NOT_OFFERED.get("lipstick", "")
+    if "BETTER" in lips["offered"]:
+        yield 0.5
+        grab("lips_fast_chosen", region_of(props_area))
+        lips["better_chosen_by"] = yield from choose(quality_buttons(region_of(props_area), "lips_fast_chosen"),
+                                                     "BETTER", lips_props)
+        lips["better_label"] = quality_label(lips_props())
+        x, y = yield from button_when_drawn(props_area, "lips_better_chosen")
+        xdo("mousemove", x, y)
+        yield 0.5
+        try:
+            better, better_ms = yield from click_match(lips_props, lips_inputs, "lips Better click", wait=120.0,
+                                                       running_shot="lips_better_running")
+            lips.update({"better": better, "better_ms": [better_ms], "better_estimate": lips_props().last_estimate})
+        except MatchFailed as exc:
+            lips["better_error"] = str(exc)
+            RESULT["errors"].append(lips["better_error"])
+            log(lips["better_error"])
+        lips["quality"] = lips_props().quality
+        yield 1.5
+        grab("lips_better", region_of(props_area))
 
     # The hair stage: the 3D viewport becomes the Compositor, its sidebar on the VTO tab.
     view = area_of("VIEW_3D")

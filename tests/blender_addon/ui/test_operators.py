@@ -17,7 +17,6 @@ bpy = pytest.importorskip("bpy")
 
 import blender_addon  # noqa: E402
 from blender_addon.matching import apply  # noqa: E402
-from blender_addon.matching.photo_fit import NOT_OFFERED  # noqa: E402
 from blender_addon.matching.reference import load_reference  # noqa: E402
 from blender_addon.shipped import MODELS  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
@@ -712,8 +711,7 @@ def test_the_panels_draw_every_control_and_the_last_estimate(material, reference
     shown = {entry[1] for entry in log if entry[0] == "prop"}
     assert {"image_path", "use_crop", "mask_path", "model_path"} <= shown
     assert {"find_lips"} <= shown
-    assert not any(entry[0] == "enum" for entry in log)  # lips: only Fast pays (photo_fit.OFFERED), and it says why
-    assert ("label", NOT_OFFERED["lipstick"]) in log
+    assert [entry[1] for entry in log if entry[0] == "enum"] == ["FAST", "BETTER", "BEST"]  # photo_fit.OFFERED
     assert any(entry[1] == "Fast: no render, milliseconds" for entry in log if entry[0] == "label")
     assert ("operator", "vto.match_from_photo") in log
     assert run_match(material=material, image_path=reference)[0] == {"FINISHED"}

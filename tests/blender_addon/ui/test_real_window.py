@@ -158,10 +158,18 @@ def test_the_hair_is_found_in_the_whole_portrait(run):
     assert (mask & drawn).sum() / (mask | drawn).sum() >= 0.6
 
 
-def test_lips_are_offered_fast_only_and_the_panel_says_why(run):
+def test_better_chosen_in_the_lips_panel_fits_in_the_photos_scene_and_writes_other_values(run):
+    """Lips are offered Fast, Better and Best (photo_fit.OFFERED); Better, chosen by a click in the material panel's
+    Quality row, runs the modal fit in the photo's own scene and writes values other than Fast's."""
     lips = run.part("lips")
-    assert lips["offered"] == ["FAST"] and lips["quality_label"].startswith("Fast")
-    assert lips["not_offered"].startswith("Better, Best: below Fast")
+    assert lips["offered"] == ["FAST", "BETTER", "BEST"] and lips["quality_label"].startswith("Fast")
+    assert lips["better_chosen_by"] in ("click", "property")
+    assert lips["better_label"].startswith("Better: 25 renders")
+    assert "better_error" not in lips, lips["better_error"]
+    fast, better = lips["third"], lips["better"]
+    assert set(better) == set(fast) and better != fast
+    assert lips["quality"] == "BETTER" and max(lips["ms"][1:]) < lips["better_ms"][0] < 120_000.0
+    assert (run.out / "lips_better_panel.png").stat().st_size > 1000
 
 
 def test_better_chosen_in_the_hair_panel_refines_the_fast_values(run):

@@ -1,0 +1,142 @@
+"""Better and Best for lips in the photo's own scene: each candidate rendered onto this photo's lips (its face mesh,
+its light, bare lips under the layer: the try-on, blender_addon.renderers.tryon) and compared with the photo pixel by
+pixel.
+
+A made-up photo does not show its bare lips, and with the photo's own lips under the layer no product at all
+(opacity 0) would reproduce the photo. So what lies under the layer is made from the photo: Fast's product divided
+out of the photo's lips (their shading and lines stay), scaled to the colour of the bare lips that the skin beside
+them predicts (vto_core.photo.bare_lips); the scene's bare lips take that colour, so under an opaque product the
+guess divides out and only a thin one shows it. Where the lips found reach past the paint (a pixel or two of skin, or
+lips the layer missed), dividing the product out leaves a colour no lips have: those pixels are trusted less
+(under_layer). Each candidate's try-on (vto_core.photo.tryon.composite, clipped as a photo is) is compared with the
+photo over the trusted core of the lips, in sRGB levels, by Levenberg-Marquardt (blender_addon.matching.refine) from
+Fast's estimate, which is kept unless a candidate renders closer; each unit of distance from Fast costs SCENE_PRIOR
+levels, so where the photo cannot tell (a thin layer over lips of an unknown colour) the estimate stays near what
+the encoder read.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vto_core.appearance import skin_colour
+from vto_core.colour import linear_to_srgb, srgb_to_linear
+from vto_core.dataset import DEFAULT_SAMPLES
+from vto_core.errors import VtoError
+from vto_core.photo.bare_lips import bare_lips
+from vto_core.photo.tryon import composite, feathered, worn_over_bare
+from vto_core.specs import RendererSpec
+
+SCENE_FIT = {"BETTER": (64, 25), "BEST": (96, 100)}  # quality -> (the lips frame's px a side, renders in all)
+# sRGB levels of RMS over the lips that one unit of parameter distance from Fast costs. On 5 looks tried on a training
+# face, 24 against 8 kept Better within 1.0 CIEDE2000 of Fast where Fast was right (Berry Stain: 1.0 against 4.3).
+SCENE_PRIOR = 24.0
+LIFT_FLOOR = 0.02  # a product's ratio is divided out as at least this (a black product would lift the noise)
+# The lips found on a made-up photo are not exactly the painted ones (on one training face the two masks overlap by
+# 75 %: the landmarks move a pixel or two once the lips are coloured), so the comparison leaves out a band of this
+# many px inside the lips' edge. The lips are a few px thick in the frame: 2 px would leave a tenth of them.
+CORE_INSET = 1
+# The median of the lips' core over their whole mask's mean, per channel, in linear colour: medians over the 87
+# training faces of data/faces that wear no lipstick (spread 0.09-0.13). A median is what a product's lowered
+# highlights (vto_core.photo.tryon.lowered_highlights, above the 0.7 quantile) and a photo's clipped ones leave as it
+# was; the bare lips (vto_core.photo.bare_lips) are a whole mask's mean.
+CORE_MEDIAN = np.array([1.15, 1.09, 1.13])
+TRUST_SCALE = 0.5  # log colour: a pixel of the lips left 1.65 times off the bare lips' colour has half the trust
+
+
+def scene_target(photo: np.ndarray, lips, n: int):
+    """The photo's lips ready to fit in its own scene (blender_addon.renderers.tryon.PhotoLips at n x n px), or None
+    where they cannot be: no face's lips (a close-up, a mask), lips too small to render onto, or no skin beside them
+    to tell the bare lips' colour."""
+    from ..renderers.tryon import photo_lips
+
+    if lips is None:
+        return None
+    try:
+        target = photo_lips(photo, n, lips)
+    except VtoError:
+        return None
+    if not (target.mask > 0.5).any() or skin_colour(target.frame, target.mask) is None:
+        return None
+    return target
+
+
+def lips_core(mask: np.ndarray) -> np.ndarray:
+    """(n, n) 0/1 -> (n, n) bool: the lips CORE_INSET px in from their edge (the whole mask where that leaves
+    nothing)."""
+    core = feathered(mask, CORE_INSET) >= 1.0 - 1e-6
+    return core if core.any() else np.asarray(mask) > 0.5
+
+
+def under_layer(frame: np.ndarray, soft: np.ndarray, core: np.ndarray, ratio: np.ndarray, bare: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """What lies under the layer, and where the photo shows the layer: (the photo's frame (n, n, 3) linear with the
+    product of `ratio` (n, n, 3, what Fast's estimate does to the lips) divided out inside the soft mask (n, n) and
+    scaled per channel so that the median of its trusted pixels is what the `bare` lips' colour (3,) linear gives
+    (CORE_MEDIAN); the trust (n, n) in [0, 1] of each pixel of the lips' core (n, n)).
+
+    Where the product lies, dividing it out leaves lips of about the bare lips' colour; where the lips found reach
+    past the painted ones (skin, or lips the layer missed), it leaves a colour no lips have (bare lips divided by a
+    pink product's ratio are dark green). A pixel's trust falls with the log-colour distance of what is left from the
+    bare lips (a Cauchy weight, TRUST_SCALE). The photo's shading and lip lines stay; the product's colour and sheen
+    go."""
+    if not core.any():
+        return np.asarray(frame, np.float32), np.zeros(core.shape, np.float32)
+    lifted = frame / np.maximum(ratio, LIFT_FLOOR)
+    expected = np.asarray(bare, np.float64) * CORE_MEDIAN
+    distance = np.linalg.norm(np.log(np.maximum(lifted, 1e-4)) - np.log(np.maximum(expected, 1e-4)), axis=-1)
+    trust = np.where(core, 1.0 / (1.0 + (distance / TRUST_SCALE) ** 2), 0.0)
+    trusted = trust >= 0.5
+    gain = expected / np.maximum(np.median(lifted[trusted if trusted.any() else core], axis=0), 1e-4)
+    weight = soft[..., None]
+    return (frame * (1 - weight) + lifted * gain * weight).astype(np.float32), trust.astype(np.float32)
+
+
+def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], quality: str,
+                         samples: int = DEFAULT_SAMPLES, seed: int = 0):
+    """Fit the lipstick's modelled values so that, tried on `target`'s bare lips (scene_target, framed at
+    SCENE_FIT[quality]'s size), they show what the photo shows, with SCENE_FIT[quality]'s renders from `start` (Fast's
+    modelled raw values). A generator: yields renders made so far; returns the fitted modelled values (raw)."""
+    from ..renderers.scene_photo import set_bare_lips
+    from ..renderers.tryon import render_look, set_photo_lips
+    from .refine import iter_refine_by_render
+
+    if quality not in SCENE_FIT:
+        raise VtoError(f"a fit in the photo's scene is {' or '.join(SCENE_FIT)}, got '{quality}'")
+    renders = SCENE_FIT[quality][1]
+    predicted = bare_lips(skin_colour(target.frame, target.mask))
+    scene = set_photo_lips(target, samples, seed)
+    set_bare_lips(predicted / target.cast)
+    bare = render_look(scene, spec.full_values({"opacity": 0.0}))
+    yield 1
+    soft = feathered(target.mask)
+    if bare.shape[:2] != soft.shape:
+        raise VtoError(f"the photo scene rendered {bare.shape[0]} px for a {soft.shape[0]} px frame")
+    core = lips_core(target.mask)
+    fast = spec.full_values(start)
+    under, trust = under_layer(srgb_to_linear(target.frame), soft, core, worn_over_bare(bare, render_look(scene, fast)),
+                               predicted)
+    yield 2
+    # The scene's bare lips take the colour of what lies under the layer, as the try-on's take the photo's: under an
+    # opaque product the level of the lips under it then divides out, whatever the bare lips' colour was guessed.
+    set_bare_lips(under[target.mask > 0.5].mean(axis=0, dtype=np.float64) / target.cast)
+    bare = render_look(scene, spec.full_values({"opacity": 0.0}))
+    yield 3
+    weights = (255.0 * np.sqrt(trust / max(float(trust.sum()), 1e-6)))[..., None]
+    unit = spec.normalise(spec.vector(start))
+    wraps = np.array([p.wraps for p in spec.modelled_params])
+
+    def tried(trial: np.ndarray) -> np.ndarray:
+        values = spec.full_values(spec.values(spec.denormalise(trial)))
+        ratio = worn_over_bare(bare, render_look(scene, values))
+        worn = np.clip(linear_to_srgb(composite(under, ratio, soft, values["opacity"])), 0.0, 1.0)  # as a photo is
+        return np.concatenate([(worn * weights).ravel(), SCENE_PRIOR * (trial - unit)])
+
+    reference = np.concatenate([(target.frame * weights).ravel(), np.zeros(unit.size)])
+    steps = iter_refine_by_render(tried, reference, unit, renders - 3, wraps=wraps, search="fit")
+    while True:
+        try:
+            yield 3 + next(steps)
+        except StopIteration as done:
+            fitted = spec.values(spec.denormalise(done.value.unit))
+            return {name: float(fitted[name]) for name in spec.modelled}

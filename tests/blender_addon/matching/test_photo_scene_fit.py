@@ -1,0 +1,97 @@
+"""Better and Best for lips in the photo's own scene (blender_addon.matching.photo_scene_fit): the candidates tried on
+the photo's lips and compared with it."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.blender
+pytest.importorskip("bpy")
+
+from blender_addon.matching.photo_fit import iter_fit_photo  # noqa: E402
+from blender_addon.matching.photo_scene_fit import (SCENE_FIT, iter_fit_photo_scene, lips_core,  # noqa: E402
+                                                    scene_target, under_layer)
+from blender_addon.matching.refine import drain  # noqa: E402
+from blender_addon.renderers.tryon import find_lips, tryon_lipstick  # noqa: E402
+from vto_core.errors import VtoError  # noqa: E402
+from vto_core.imageio import read_image  # noqa: E402
+from vto_core.photo.lips_locator import DEFAULT_LENS, close_up  # noqa: E402
+from vto_core.photo.tryon import feathered  # noqa: E402
+from vto_core.presets import load_presets  # noqa: E402
+from vto_core.specs import get_spec  # noqa: E402
+
+FACE = Path(__file__).resolve().parents[3] / "data" / "faces" / "nasa_william_oefelein.jpg"  # train split, bare lips
+SPEC = get_spec("lipstick")
+COLOUR = ["red", "green", "blue"]
+
+
+@pytest.fixture(scope="module")
+def made_up():
+    """(the face wearing Hot Pink Matte, its modelled values), the try-on at 8 spp. An opaque product: its colour does
+    not depend on the bare lips the skin predicts (a thin one's does: this face's lips are greener than predicted)."""
+    truth = {k: SPEC.check_values(load_presets("lipstick")["Hot Pink Matte"])[k] for k in SPEC.modelled}
+    return tryon_lipstick(read_image(FACE)[0][..., :3], SPEC.full_values(truth), samples=8), truth
+
+
+def colour_miss(values, truth):
+    return float(np.linalg.norm([values[k] - truth[k] for k in COLOUR]))
+
+
+def test_better_reads_the_product_back_from_a_wrong_start(made_up):
+    photo, truth = made_up
+    target = scene_target(photo, find_lips(photo), SCENE_FIT["BETTER"][0])
+    start = {**truth, "red": truth["red"] - 40, "green": truth["green"] + 35, "blue": truth["blue"] - 40}
+    counts = []
+    fitted = drain(iter_fit_photo_scene(SPEC, target, start, "BETTER", samples=8), counts.append)
+    assert counts[-1] == SCENE_FIT["BETTER"][1] and counts == sorted(counts)  # exactly its renders, the bare ones too
+    assert colour_miss(fitted, truth) < 0.4 * colour_miss(start, truth)
+
+
+def test_better_keeps_a_start_the_photo_already_shows(made_up):
+    photo, truth = made_up
+    target = scene_target(photo, find_lips(photo), SCENE_FIT["BETTER"][0])
+    fitted = drain(iter_fit_photo_scene(SPEC, target, truth, "BETTER", samples=8))
+    assert colour_miss(fitted, truth) < 20 and abs(fitted["opacity"] - truth["opacity"]) < 0.15
+
+
+def test_lips_without_a_face_or_skin_are_fitted_on_the_default_scene_instead(made_up):
+    photo, _ = made_up
+    assert scene_target(photo, None, 64) is None
+    lens = close_up(photo.shape[:2], DEFAULT_LENS, 0.0, "a close-up")
+    assert scene_target(photo, lens, 64) is None  # a close-up's lips are no face's: the default-scene fit
+    with pytest.raises(VtoError, match="quality is BETTER or BEST"):
+        drain(iter_fit_photo(SPEC, (photo[:8, :8], np.ones((8, 8), np.float32)), {}, "FAST", photo=(photo, None)))
+    with pytest.raises(VtoError, match="BETTER or BEST"):
+        drain(iter_fit_photo_scene(SPEC, None, {}, "FAST"))
+
+
+def test_the_layer_is_divided_out_where_it_lies_and_mistrusted_where_the_lips_found_reach_past_it():
+    mask = np.zeros((32, 32), np.float32)
+    mask[10:22, 4:28] = 1
+    bare = np.array([0.25, 0.1, 0.07])
+    rng = np.random.default_rng(0)
+    shading = 1.12 * rng.uniform(0.9, 1.1, (32, 32, 1)).astype(np.float32)  # about CORE_MEDIAN: a bare core
+    ratio = np.broadcast_to(np.array([3.0, 0.6, 1.5], np.float32), (32, 32, 3)).copy()
+    frame = bare * shading * ratio  # the product on the lips ...
+    frame[18:22] = (bare * shading)[18:22]  # ... but for the lower rows, which the layer missed
+    under, trust = under_layer(frame.astype(np.float32), feathered(mask), lips_core(mask), ratio, bare)
+    core = lips_core(mask)
+    assert trust[core & (np.arange(32)[:, None] < 17)].min() > 0.8 and trust[18:21, 5:27].max() < 0.2
+    painted = core & (np.arange(32)[:, None] < 17)
+    np.testing.assert_allclose(np.median(under[painted], axis=0), bare * np.array([1.15, 1.09, 1.13]), rtol=0.05)
+    assert (trust[~core] == 0).all()
+
+
+@pytest.mark.parametrize("frame", [np.zeros((16, 16, 3)), np.full((16, 16, 3), 0.5), np.full((16, 16, 3), 40.0)])
+def test_constant_black_and_hdr_frames_give_finite_layers(frame):
+    mask = np.zeros((16, 16), np.float32)
+    mask[5:11, 3:13] = 1
+    for ratio in (np.zeros((16, 16, 3)), np.full((16, 16, 3), 64.0)):
+        under, trust = under_layer(frame.astype(np.float32), feathered(mask), lips_core(mask), ratio,
+                                   np.array([0.2, 0.08, 0.05]))
+        assert np.isfinite(under).all() and np.isfinite(trust).all() and (trust >= 0).all() and (trust <= 1).all()
+    empty = np.zeros((16, 16), np.float32)
+    under, trust = under_layer(frame.astype(np.float32), feathered(empty), lips_core(empty), np.ones((16, 16, 3)),
+                               np.array([0.2, 0.08, 0.05]))
+    assert np.isfinite(under).all() and (trust == 0).all()
