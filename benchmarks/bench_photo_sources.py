@@ -112,8 +112,9 @@ def estimate(model: Path, path: Path, quality: str) -> tuple[dict[str, float], f
 
 
 def roundtrip(models: dict[str, Path], qualities: list[str], faces: int, products: int, work: Path,
-              renders: Renders) -> str:
-    """Part (a): rows per model and quality, and per face."""
+              renders: Renders, best_faces: int | None = None) -> str:
+    """Part (a): rows per model and quality, and per face. best_faces: Best (100 renders a photo) on the first
+    best_faces faces only, beside Fast and Better on the same faces."""
     from blender_addon.renderers.tryon import tryon_lipstick
     from vto_core.imageio import read_image, write_image
     from vto_core.presets import load_presets
@@ -131,22 +132,32 @@ def roundtrip(models: dict[str, Path], qualities: list[str], faces: int, product
                 write_image(path, tryon_lipstick(photo, values, samples=TRYON_SAMPLES))
             worn.append((entry, name, path))
     rows, per_face = [], {}
-    for label, model in models.items():
-        for quality in qualities if label == "new" else ["fast"]:
-            row_label = f"{label} encoder, {quality}"
-            errors, gains, times = [], [], []
-            for entry, name, path in worn:
-                values, ms = estimate(model, path, quality)
-                truth = renders(looks[name], SOURCES)
-                guess = renders(values, SOURCES)
-                errors.append(delta_e(renders.apparent(looks[name], SOURCES), renders.apparent(values, SOURCES)))
-                gains.append(np.mean([psnr(t[0], g[0]) for t, g in zip(truth, guess)]))
-                times.append(ms)
-                per_face.setdefault(entry["subject"].split(",")[0], {}).setdefault(row_label, []).append(errors[-1])
-            rows.append([row_label, len(worn), f"{np.median(errors):.2f}", f"{np.mean(errors):.2f}",
-                         f"{np.mean(gains):.2f}", f"{np.median(times):,.0f}"])
-    face_rows = [[face, *[f"{np.median(v):.2f}" for v in by.values()]] for face, by in per_face.items()]
-    labels = list(next(iter(per_face.values())).keys())
+    subset = best_faces is not None and best_faces < faces and "best" in qualities
+    runs = [(label, quality, worn) for label in models for quality in (qualities if label == "new" else ["fast"])
+            if not (subset and quality == "best")]
+    if subset:
+        first = {entry["file"] for entry in held_out_faces(best_faces)}
+        some = [look for look in worn if look[0]["file"] in first]
+        runs += [("new", quality, some) for quality in qualities]
+    for label, quality, looked in runs:
+        base = f"{label} encoder, {quality}"
+        row_label = base + (f" (first {best_faces} faces)" if looked is not worn else "")
+        per_face_too = looked is worn or quality == "best"  # the subset's Fast and Better are in their whole rows
+        errors, gains, times = [], [], []
+        for entry, name, path in looked:
+            values, ms = estimate(models[label], path, quality)
+            truth = renders(looks[name], SOURCES)
+            guess = renders(values, SOURCES)
+            errors.append(delta_e(renders.apparent(looks[name], SOURCES), renders.apparent(values, SOURCES)))
+            gains.append(np.mean([psnr(t[0], g[0]) for t, g in zip(truth, guess)]))
+            times.append(ms)
+            if per_face_too:
+                per_face.setdefault(entry["subject"].split(",")[0], {}).setdefault(base, []).append(errors[-1])
+        rows.append([row_label, len(looked), f"{np.median(errors):.2f}", f"{np.mean(errors):.2f}",
+                     f"{np.mean(gains):.2f}", f"{np.median(times):,.0f}"])
+    labels = list(dict.fromkeys(label for by in per_face.values() for label in by))
+    face_rows = [[face, *[f"{np.median(by[label]):.2f}" if label in by else "-" for label in labels]]
+                 for face, by in per_face.items()]
     return ("\n".join([
         f"{faces} held-out faces x {len(looks)} products ({', '.join(looks)}), tried on with `vto tryon`'s renderer "
         f"({TRYON_SAMPLES} spp) and read back with `vto match`. Truth and estimate rendered on default sources 0-7.",
@@ -325,6 +336,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--qualities", default="fast")
     parser.add_argument("--faces", type=int, default=13)
     parser.add_argument("--products", type=int, default=len(PRODUCTS))
+    parser.add_argument("--best-faces", type=int, default=None,
+                        help="the round trip's Best on the first N faces only (it takes 6x Better's renders)")
     parser.add_argument("--work", default=None, help="a folder kept between runs (try-ons, moved photos)")
     parser.add_argument("--results", default=str(RESULTS))
     args = parser.parse_args(argv)
@@ -338,13 +351,15 @@ def main(argv: list[str] | None = None) -> None:
     KEPT[:] = [kept]
     parts = args.parts.split(",")
     command = (f"python -m benchmarks.bench_photo_sources --parts {args.parts} --qualities {args.qualities} "
-               f"--faces {args.faces} --products {args.products}")
+               f"--faces {args.faces} --products {args.products}"
+               + (f" --best-faces {args.best_faces}" if args.best_faces else ""))
     shown = Path(args.model).resolve()
     shown = shown.relative_to(ROOT) if shown.is_relative_to(ROOT) else shown
     heading = f"Reproduce: `{command}`. New: `{shown}`.\n\n"
     if "roundtrip" in parts:
         write_section("photo_sources", "roundtrip", heading + roundtrip(models, qualities, args.faces, args.products,
-                                                                        work, renders), Path(args.results))
+                                                                        work, renders, args.best_faces),
+                      Path(args.results))
         kept.write_text(json.dumps(ESTIMATES))
     if "slopes" in parts:
         write_section("photo_sources", "slopes", heading + slopes(models, qualities, work, renders), Path(args.results))
