@@ -12,7 +12,7 @@ from vto_core.specs import get_spec
 
 from ..matching import apply
 from . import preview, thumbnail, warmup
-from ..matching.photo_fit import FIT_QUALITY, FIT_SECONDS, OFFERED
+from ..matching.photo_fit import FIT_QUALITY, FIT_SECONDS, NOT_OFFERED, OFFERED
 from .operators import (VTO_OT_add_hair_compositor, VTO_OT_add_lipstick_material, VTO_OT_match_from_photo,
                         VTO_OT_preview_on_photo)
 from .preferences import preference_model
@@ -52,7 +52,7 @@ def draw_reference(column, props, preview_name: str, renderer: str) -> None:
 
 
 def draw_quality(column, props, renderer: str) -> None:
-    """Fast / Better / Best where they pay (OFFERED), and what the choice costs."""
+    """Fast / Better / Best where they pay (OFFERED; else why not), and what the choice costs."""
     offered = OFFERED[renderer]
     quality = props.quality if props.quality in offered else "FAST"
     if len(offered) > 1:
@@ -65,6 +65,8 @@ def draw_quality(column, props, renderer: str) -> None:
         for value in offered:
             row.prop_enum(props, "quality", value)
     column.label(text=quality_cost(renderer, quality), icon="TIME")
+    if renderer in NOT_OFFERED:
+        column.label(text=NOT_OFFERED[renderer], icon="INFO")
 
 
 def quality_cost(renderer: str, quality: str) -> str:

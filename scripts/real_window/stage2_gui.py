@@ -366,6 +366,7 @@ def script():
     # The qualities lips are offered (photo_fit.OFFERED); where Better is one, a real click on it, then Match: the fit
     # in the photo's own scene runs as a modal operator.
     lips["offered"] = list(extension("matching.photo_fit").OFFERED["lipstick"])
+    lips["not_offered"] = extension("matching.photo_fit").NOT_OFFERED.get("lipstick", "")
     if "BETTER" in lips["offered"]:
         yield 0.5
         grab("lips_fast_chosen", region_of(props_area))

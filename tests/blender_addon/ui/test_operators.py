@@ -17,6 +17,7 @@ bpy = pytest.importorskip("bpy")
 
 import blender_addon  # noqa: E402
 from blender_addon.matching import apply  # noqa: E402
+from blender_addon.matching.photo_fit import NOT_OFFERED  # noqa: E402
 from blender_addon.matching.reference import load_reference  # noqa: E402
 from blender_addon.shipped import MODELS  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
@@ -711,7 +712,8 @@ def test_the_panels_draw_every_control_and_the_last_estimate(material, reference
     shown = {entry[1] for entry in log if entry[0] == "prop"}
     assert {"image_path", "use_crop", "mask_path", "model_path"} <= shown
     assert {"find_lips"} <= shown
-    assert [entry[1] for entry in log if entry[0] == "enum"] == ["FAST", "BETTER", "BEST"]  # photo_fit.OFFERED
+    assert [entry[1] for entry in log if entry[0] == "enum"] == ["FAST", "BETTER"]  # photo_fit.OFFERED
+    assert ("label", NOT_OFFERED["lipstick"]) in log  # and it says why not Best
     assert any(entry[1] == "Fast: no render, milliseconds" for entry in log if entry[0] == "label")
     assert ("operator", "vto.match_from_photo") in log
     assert run_match(material=material, image_path=reference)[0] == {"FINISHED"}

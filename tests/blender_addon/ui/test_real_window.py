@@ -159,10 +159,12 @@ def test_the_hair_is_found_in_the_whole_portrait(run):
 
 
 def test_better_chosen_in_the_lips_panel_fits_in_the_photos_scene_and_writes_other_values(run):
-    """Lips are offered Fast, Better and Best (photo_fit.OFFERED); Better, chosen by a click in the material panel's
-    Quality row, runs the modal fit in the photo's own scene and writes values other than Fast's."""
+    """Lips are offered Fast and Better (photo_fit.OFFERED; the panel says why not Best). Better, chosen by a click
+    in the material panel's Quality row, runs the modal fit in the photo's own scene and writes values other than
+    Fast's."""
     lips = run.part("lips")
-    assert lips["offered"] == ["FAST", "BETTER", "BEST"] and lips["quality_label"].startswith("Fast")
+    assert lips["offered"] == ["FAST", "BETTER"] and lips["quality_label"].startswith("Fast")
+    assert lips["not_offered"].startswith("Best: no closer than Better")
     assert lips["better_chosen_by"] in ("click", "property")
     assert lips["better_label"].startswith("Better: 25 renders")
     assert "better_error" not in lips, lips["better_error"]
