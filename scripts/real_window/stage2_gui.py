@@ -188,6 +188,23 @@ def click_match(props, inputs, name, wait=5.0, running_shot=None):
     return inputs(), ms
 
 
+def click_better(record, props, inputs, name, region):
+    """A real click on the hovered Match with Better chosen, in `name`'s panel (lips or hair): its values, reported
+    ms and estimate into `record` (or, where it wrote nothing, the error: recorded, not raised), the quality it ran
+    with, and the screenshot NAME_better of `region` after it."""
+    try:
+        better, better_ms = yield from click_match(props, inputs, f"{name} Better click", wait=120.0,
+                                                   running_shot=f"{name}_better_running")
+        record.update({"better": better, "better_ms": [better_ms], "better_estimate": props().last_estimate})
+    except MatchFailed as exc:
+        record["better_error"] = str(exc)
+        RESULT["errors"].append(record["better_error"])
+        log(record["better_error"])
+    record["quality"] = props().quality
+    yield 1.5
+    grab(f"{name}_better", region)
+
+
 def button_when_drawn(area, shot, seconds=15.0):
     """find_button on a fresh screenshot of `area`, again every half second while the panel has not drawn its buttons
     yet (on two busy cores the panel lays out after Match's preview a few seconds late). A generator: returns (x, y)."""
@@ -376,17 +393,7 @@ def script():
         x, y = yield from button_when_drawn(props_area, "lips_better_chosen")
         xdo("mousemove", x, y)
         yield 0.5
-        try:
-            better, better_ms = yield from click_match(lips_props, lips_inputs, "lips Better click", wait=120.0,
-                                                       running_shot="lips_better_running")
-            lips.update({"better": better, "better_ms": [better_ms], "better_estimate": lips_props().last_estimate})
-        except MatchFailed as exc:
-            lips["better_error"] = str(exc)
-            RESULT["errors"].append(lips["better_error"])
-            log(lips["better_error"])
-        lips["quality"] = lips_props().quality
-        yield 1.5
-        grab("lips_better", region_of(props_area))
+        yield from click_better(lips, lips_props, lips_inputs, "lips", region_of(props_area))
 
     # The hair stage: the 3D viewport becomes the Compositor, its sidebar on the VTO tab.
     view = area_of("VIEW_3D")
@@ -436,17 +443,7 @@ def script():
     hair["better_label"] = quality_label(hair_props(), "hair")
     xdo("mousemove", hx, hy)
     yield 0.5
-    try:
-        better, better_ms = yield from click_match(hair_props, hair_inputs, "hair Better click", wait=120.0,
-                                                   running_shot="hair_better_running")
-        hair.update({"better": better, "better_ms": [better_ms], "better_estimate": hair_props().last_estimate})
-    except MatchFailed as exc:
-        hair["better_error"] = str(exc)
-        RESULT["errors"].append(hair["better_error"])
-        log(hair["better_error"])
-    hair["quality"] = hair_props().quality
-    yield 1.5
-    grab("hair_better", sidebar)
+    yield from click_better(hair, hair_props, hair_inputs, "hair", sidebar)
     RESULT["completed"] = True
 
 
