@@ -209,14 +209,38 @@ def in_whole(lips, box: tuple[int, int, int, int], shape: tuple[int, int]):
                                inner=np.asarray(lips.inner) + offset, landmarks=landmarks)
 
 
-def refuse_monochrome(whole: np.ndarray, product: str, toned: bool = True) -> None:
+def refuse_monochrome(whole: np.ndarray, product: str, toned: bool = True, facts: dict | None = None) -> None:
     """VtoError (one line) where the photo (H, W, 3) has no colour to read a `product` colour from: black and white,
-    or (toned) a monochrome toned print (vto_core.photo.monochrome)."""
+    or (toned) a monochrome toned print (vto_core.photo.monochrome); the answer kept with the photo (its photo_facts,
+    `facts` where the caller has them)."""
     from vto_core.photo.monochrome import monochrome_problem
 
-    problem = monochrome_problem(whole, product, toned)
-    if problem:
-        raise VtoError(problem)
+    facts = photo_facts(whole) if facts is None else facts
+    if ("monochrome", product, toned) not in facts:
+        facts["monochrome", product, toned] = monochrome_problem(whole, product, toned)
+    if facts["monochrome", product, toned]:
+        raise VtoError(facts["monochrome", product, toned])
+
+
+def photo_facts(whole: np.ndarray) -> dict:
+    """What was read of the last photo, kept by a hash of its pixels (a few ms a megapixel, where reading its face
+    takes 25-50): its face ('face'), its monochrome checks, its hair. The panel's thumbnail reads the photo when it
+    is chosen, and each Match on it then reads nothing again."""
+    key = (whole.shape, whole.dtype.str, hashlib.blake2b(np.ascontiguousarray(whole).view(np.uint8),
+                                                         digest_size=16).digest())
+    if _LAST_FOUND.get("key") != key:
+        _LAST_FOUND.clear()
+        _LAST_FOUND["key"] = key
+    return _LAST_FOUND
+
+
+def face_of(whole: np.ndarray, facts: dict | None = None):
+    """The largest face of the photo (H, W, 3) (read_face, or None), read once per photo (its photo_facts, `facts`
+    where the caller has them)."""
+    facts = photo_facts(whole) if facts is None else facts
+    if "face" not in facts:
+        facts["face"] = read_face(whole)
+    return facts["face"]
 
 
 def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None, find_lips: bool = True,
@@ -226,13 +250,15 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     the locator finds no lips is taken as the artist drew it: the lips where the default scene frames them.
     neutral_light: where the lips are known, the photo's light is read from the skin beside them and taken out
     (vto_core.photo.photo_light), so the estimate is of the product, not of the light it was photographed in."""
-    refuse_monochrome(whole, "lipstick")
+    facts = photo_facts(whole)
+    refuse_monochrome(whole, "lipstick", facts=facts)
     height, width = whole.shape[:2]
     box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
     notes, lips = [], None
     if mask is None and find_lips:
         try:
-            lips = locate_lips(cut(whole, box))
+            face = face_of(whole, facts) if crop is None else None
+            lips = locate_lips(cut(whole, box), face)
         except VtoError:
             if crop is None:
                 raise
@@ -262,18 +288,15 @@ def lips_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     return Reference(image, region, whole, box, lips, notes, light)
 
 
-def face_and_hair(whole: np.ndarray, find_hair: bool, neutral_light: bool) -> tuple[object, object, object]:
+def face_and_hair(whole: np.ndarray, find_hair: bool, neutral_light: bool, facts: dict | None = None
+                  ) -> tuple[object, object, object]:
     """(the largest face of `whole` or None, the photo's light read beside its lips or None, the hair found around
     it or None): read_face; with neutral_light and a face, light_of the skin beside the lips; with find_hair and a
     face, locate_hair in that light (VtoError 'no hair found ...'). The last photo's face and hair are kept, by a hash
     of its pixels: the panel's thumbnail finds the hair when the photo is chosen, and Match then reads it again at no
     cost."""
-    key = (whole.shape, whole.dtype.str, hashlib.blake2b(np.ascontiguousarray(whole).view(np.uint8),
-                                                         digest_size=16).digest())
-    if _LAST_FOUND.get("key") != key:
-        _LAST_FOUND.clear()
-        _LAST_FOUND.update(key=key, face=read_face(whole))
-    face, light, hair = _LAST_FOUND["face"], None, None
+    facts = photo_facts(whole) if facts is None else facts
+    face, light, hair = face_of(whole, facts), None, None
     if neutral_light and face is not None:
         try:
             light = light_of(whole, locate_lips(whole, face).mask)
@@ -281,9 +304,9 @@ def face_and_hair(whole: np.ndarray, find_hair: bool, neutral_light: bool) -> tu
             light = None
     if find_hair and face is not None:
         light_key = None if light is None else tuple(light.gains)
-        if _LAST_FOUND.get("hair", (False,))[0] != light_key:
-            _LAST_FOUND["hair"] = (light_key, locate_hair(whole, face, light))
-        hair = _LAST_FOUND["hair"][1]
+        if facts.get("hair", (False,))[0] != light_key:
+            facts["hair"] = (light_key, locate_hair(whole, face, light))
+        hair = facts["hair"][1]
     return face, light, hair
 
 
@@ -302,13 +325,14 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
     from vto_core.hair import hair_square
     from vto_core.photo.hair_locator import patch_problem
 
-    refuse_monochrome(whole, "hair", toned=False)
+    facts = photo_facts(whole)
+    refuse_monochrome(whole, "hair", toned=False, facts=facts)
     height, width = whole.shape[:2]
     box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
     finding = find_hair and crop is None and mask is None
-    if (neutral_light or finding) and face_and_hair(whole, False, False)[0] is not None:
-        refuse_monochrome(whole, "hair")  # a portrait: a toned print too (a patch of grey hair alone is near one hue)
-    face, light, hair = face_and_hair(whole, finding, neutral_light) if neutral_light or finding else (None,) * 3
+    if (neutral_light or finding) and face_of(whole, facts) is not None:
+        refuse_monochrome(whole, "hair", facts=facts)  # a portrait: a toned print too (grey hair alone is near one hue)
+    face, light, hair = face_and_hair(whole, finding, neutral_light, facts) if neutral_light or finding else (None,) * 3
     notes = []
     if finding:
         if face is None:

@@ -385,7 +385,15 @@ class HeadFrame:
         mask = np.zeros(self.shape, np.float32)
         fine = min(TO_IMAGE_UPSAMPLE, max(1, math.ceil(1 / self.scale)))
         rows, cols = self.rows * fine, self.cols * fine
-        hair = (linear_weights(rows, self.rows) @ score @ linear_weights(cols, self.cols).T > 0.5).ravel()
+        hair = linear_weights(rows, self.rows) @ score @ linear_weights(cols, self.cols).T > 0.5
+        if not self.turn:  # the grid along the photo's axes: a column's cell depends on x alone, a row's on y alone
+            col = np.floor((x0 + np.arange(w) + 0.5 - self.low[0]) * self.scale * fine).astype(np.intp)
+            row = np.floor((y0 + np.arange(h) + 0.5 - self.low[1]) * self.scale * fine).astype(np.intp)
+            in_cols, in_rows = (col >= 0) & (col < cols), (row >= 0) & (row < rows)
+            picked = hair[np.clip(row, 0, rows - 1)][:, np.clip(col, 0, cols - 1)]
+            mask[y0:y0 + h, x0:x0 + w] = picked & in_rows[:, None] & in_cols[None, :]
+            return mask
+        hair = hair.ravel()
         # The work grid's col and row are affine in the photo's x and y: each a x + b y + c.
         origin = self.to_work(np.zeros(2)) * fine
         (col_x, row_x), (col_y, row_y) = (self.to_work(np.eye(2)) * fine - origin).astype(np.float32)

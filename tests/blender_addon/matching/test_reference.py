@@ -229,6 +229,25 @@ def test_the_last_photos_face_and_hair_are_kept_until_a_pixel_changes():
     assert face_and_hair(photo, True, False)[1] is None  # the light left in: the hair found again, as it is
 
 
+def test_a_second_lips_match_on_the_same_photo_reads_its_face_and_colour_once(monkeypatch):
+    import skimage.data
+
+    from blender_addon.matching import reference
+
+    photo = skimage.data.astronaut().astype(np.float32) / 255
+    photo[0, 0] += 0.002  # pixels no other test has read
+    reads, read_face = [], reference.read_face
+    monkeypatch.setattr(reference, "read_face", lambda image: reads.append(1) or read_face(image))
+    first = reference.lips_reference(photo)
+    again = reference.lips_reference(photo.copy())
+    assert len(reads) == 1 and np.array_equal(first.image, again.image) and first.box == again.box
+    facts = reference.photo_facts(photo)
+    assert facts["monochrome", "lipstick", True] == ""
+    photo[300, 300] += 0.01
+    reference.lips_reference(photo)
+    assert len(reads) == 2  # a pixel changed: read again
+
+
 def test_hair_is_found_under_a_warm_or_cool_light_as_under_a_neutral_one():
     """The hair's colours are judged with the photo's light taken out: 3,200 K made her seed look like skin (and
     other portraits' like a hat) when they were judged as the photo shows them."""

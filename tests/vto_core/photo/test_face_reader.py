@@ -91,6 +91,11 @@ def test_polygon_mask_even_odd_on_pixel_centres():
     assert fr.polygon_mask(square, 10, 10, 3, 3).sum() == 0
 
 
+def test_clean_reads_bad_values_as_the_bounds():
+    values = np.array([np.nan, -np.inf, np.inf, -2.0, 0.25, 7.0, 1e300])
+    assert fr.clean(values).tolist() == [0.0, 0.0, 1.0, 0.0, 0.25, 1.0, 1.0] and fr.clean(values).dtype == np.float32
+
+
 def test_sampling_reproduces_and_pads_with_black():
     image = np.random.default_rng(1).random((5, 7, 3), dtype=np.float32)
     xs, ys = np.meshgrid(np.arange(7) + 0.5, np.arange(5) + 0.5)
@@ -131,6 +136,28 @@ def test_roll_is_read_from_the_eyes_and_the_mouth(reader, astronaut):
     flipped[:, 1] *= -1  # mirrored top to bottom: the same lines, their y reversed
     assert fr.roll_of(flipped) == pytest.approx(-fr.roll_of(face.landmarks))
     assert fr.turn_between(np.radians(179), np.radians(-179)) == pytest.approx(np.radians(-2))
+
+
+def test_an_upright_face_costs_one_refine_pass_and_a_rolled_one_more(astronaut, monkeypatch):
+    reader = fr.FaceReader(DETECTOR, MESH)
+    reads = []
+    mesh_read = reader.mesh_read
+    monkeypatch.setattr(reader, "mesh_read", lambda *a: reads.append(1) or mesh_read(*a))
+    reader.read(astronaut)
+    upright = len(reads)
+    monkeypatch.setattr(fr, "REFINE_PASSES", 1)
+    reads.clear()
+    reader.read(astronaut)
+    assert upright == len(reads) == 2  # the detection's read, then one refine: as before the roll was settled
+    monkeypatch.setattr(fr, "REFINE_PASSES", 3)
+    landmarks = reader.read(astronaut).landmarks
+    centre = landmarks.mean(axis=0)
+    turn = np.radians(40)
+    rolled = (landmarks - centre) @ np.array([[np.cos(turn), np.sin(turn)], [-np.sin(turn), np.cos(turn)]]) + centre
+    start = np.concatenate([rolled, np.zeros((len(rolled), 1))], 1)
+    reads.clear()
+    settled, _, _ = reader.settle(astronaut, start, 40.0)
+    assert len(reads) > 1 and abs(fr.roll_of(settled[:, :2])) < np.radians(10)  # read again until its roll settles
 
 
 def test_an_upside_down_group_reads_every_face_and_the_largest(reader, astronaut):

@@ -209,6 +209,14 @@ def test_the_work_grid_turns_with_the_head(reader, astronaut, degrees):
     assert half[int(centre[1]), int(centre[0])] == 1
 
 
+def test_an_upright_grid_is_drawn_back_by_rows_and_columns_as_a_turned_one_is_pixel_by_pixel(reader, astronaut):
+    frame = hl.HeadFrame(reader.read(astronaut).landmarks, 512, 512)
+    score = np.random.default_rng(0).random((frame.rows, frame.cols))
+    by_axes = frame.to_image(score)
+    frame.turn = 1e-12  # the same grid, drawn back through the general path
+    assert by_axes.sum() > 1000 and np.array_equal(by_axes, frame.to_image(score))
+
+
 def test_a_canvas_black_border_is_padding_and_black_in_the_scene_is_not():
     rgb = np.full((20, 30, 3), 0.4, np.float32)
     rgb[:6, :8] = 0.0  # a turned photo's black corner, at the grid's edge
