@@ -10,8 +10,8 @@ stores the same pixels. Figure: the CIEDE2000 between the apparent colour
 (on default sources 0-1, blender_addon.matching.photo_fit.apparent_colour) of the estimate and that of the upright
 photo's estimate. (c) Monochrome: colour_spread and grey chroma (vto_core.photo.monochrome) of each photo, of it
 desaturated to 40 %, and of its black-and-white, sepia and cyanotype JPEGs, with the margins to the thresholds.
-(d) Times on a 1-megapixel portrait: reading the file (orientation applied, or not), the face read as before (one
-refine pass, no turn-over check) and as now, and the monochrome check.
+(d) Times on each portrait at about a megapixel, each way timed in turn: reading the file (orientation applied, or
+not), the face read as before (one refine pass, no turn-over check) and as now, and the monochrome check.
 Writes benchmarks/results/photo_forms.md.
 """
 
@@ -126,42 +126,92 @@ def monochrome_rows(records: list[dict], work: Path) -> tuple[list, dict]:
     return rows, pooled
 
 
-def times(record: dict, work: Path) -> list[list]:
-    """Times (ms, best of 5) on one portrait resized to about a megapixel."""
-    from vto_core.imageio import read_image, resize, write_image
-    from vto_core.photo import face_reader
-    from vto_core.photo.monochrome import monochrome_problem
+def paired_ms(before, now, repeats: int = 15) -> tuple[float, float, float]:
+    """ms of two callables timed in turn (before, now, before, ...), so that a busy machine slows both alike: (median
+    before, median now, median of the paired differences now - before)."""
+    before(), now()
+    spans = []
+    for _ in range(repeats):
+        pair = []
+        for fn in (before, now):
+            started = time.perf_counter()
+            fn()
+            pair.append(1000 * (time.perf_counter() - started))
+        spans.append(pair)
+    spans = np.array(spans)
+    return float(np.median(spans[:, 0])), float(np.median(spans[:, 1])), float(np.median(spans[:, 1] - spans[:, 0]))
+
+
+class AsBefore:
+    """The face reader as it read before roll and turn-over (one refine pass, no turn-over check), inside a with."""
+
+    SETTINGS = {"REFINE_PASSES": 1, "SURE_FACE_LOGIT": -math.inf}
+
+    def __enter__(self):
+        from vto_core.photo import face_reader
+
+        self.kept = {name: getattr(face_reader, name) for name in self.SETTINGS}
+        for name, value in self.SETTINGS.items():
+            setattr(face_reader, name, value)
+
+    def __exit__(self, *exc):
+        from vto_core.photo import face_reader
+
+        for name, value in self.kept.items():
+            setattr(face_reader, name, value)
+
+
+def megapixel(record: dict) -> np.ndarray:
+    """A record's photo resized to about a megapixel, clipped to [0, 1] as Match reads a file."""
+    from vto_core.imageio import resize
 
     photo = load_photo(record, PHOTOS.parent)
     scale = math.sqrt(1.0e6 / (photo.shape[0] * photo.shape[1]))
-    photo = resize(photo, round(photo.shape[0] * scale), round(photo.shape[1] * scale))
-    path = write_image(work / "megapixel.tif", photo)
+    return np.clip(resize(photo, round(photo.shape[0] * scale), round(photo.shape[1] * scale)), 0.0, 1.0)
+
+
+def times(records: list[dict], work: Path) -> tuple[list[list], list[list]]:
+    """What orientation and roll add, on each portrait resized to about a megapixel, timed in turn (paired_ms):
+    (rows for the first portrait, rows per portrait: mesh passes and ms of the face read as before and now)."""
+    from vto_core.imageio import read_image, write_image
+    from vto_core.photo import face_reader
+    from vto_core.photo.monochrome import monochrome_problem
+
     reader = face_reader.FaceReader(MODELS / "face_detector.onnx", MODELS / "face_landmarks.onnx")
+    passes = []
+    counted = reader.mesh_read
 
-    def best(fn, repeats=5):
-        fn()
-        spans = []
-        for _ in range(repeats):
-            started = time.perf_counter()
-            fn()
-            spans.append(1000 * (time.perf_counter() - started))
-        return min(spans)
+    def mesh_read(*args, **kwargs):
+        passes.append(1)
+        return counted(*args, **kwargs)
 
-    before = {"REFINE_PASSES": 1, "SURE_FACE_LOGIT": -math.inf}
-    kept = {name: getattr(face_reader, name) for name in before}
-    rows = [["read the file, as stored", f"{best(lambda: read_image(path, as_shown=False)):.1f}"],
-            ["read the file, turned as shown (Orientation 1)", f"{best(lambda: read_image(path)):.1f}"]]
-    tilted_photo = tilted(photo, 30)
-    for label, image in (("upright", photo), ("tilted 30 degrees", tilted_photo)):
-        for name, value in before.items():
-            setattr(face_reader, name, value)
-        old = best(lambda image=image: reader.read(image))
-        for name, value in kept.items():
-            setattr(face_reader, name, value)
-        new = best(lambda image=image: reader.read(image))
-        rows.append([f"face read, {label}: as before / now (roll settled, turn-over check)", f"{old:.1f} / {new:.1f}"])
-    rows.append(["monochrome check", f"{best(lambda: monochrome_problem(photo, 'lipstick')):.1f}"])
-    return rows
+    reader.mesh_read = mesh_read
+
+    def read_as_before(image):
+        with AsBefore():
+            return reader.read(image)
+
+    photo = megapixel(records[0])
+    path = write_image(work / "megapixel.tif", photo)
+    stored, shown, added = paired_ms(lambda: read_image(path, as_shown=False), lambda: read_image(path))
+    first = [["read the file: as stored / turned as shown (Orientation 1)", f"{stored:.1f} / {shown:.1f}",
+              f"{added:+.1f}"]]
+    old, new, added = paired_ms(lambda: read_as_before(tilted(photo, 30)), lambda: reader.read(tilted(photo, 30)), 5)
+    first.append(["face read, tilted 30 degrees: as before / now", f"{old:.1f} / {new:.1f}", f"{added:+.1f}"])
+    check = paired_ms(lambda: None, lambda: monochrome_problem(photo, "lipstick"))[1]
+    first.append(["monochrome check", f"{check:.1f}", ""])
+    per_portrait = []
+    for record in records:
+        image = megapixel(record)
+        counts = []
+        for read in (read_as_before, reader.read):
+            passes.clear()
+            read(image)
+            counts.append(len(passes))
+        old, new, added = paired_ms(lambda: read_as_before(image), lambda: reader.read(image))
+        per_portrait.append([record["subject"], f"{counts[0]} / {counts[1]}", f"{old:.1f} / {new:.1f}",
+                             f"{added:+.1f}"])
+    return first, per_portrait
 
 
 def summarise(pooled: dict) -> list[list]:
@@ -184,7 +234,7 @@ def main(argv: list[str] | None = None) -> None:
     command = "python -m benchmarks.bench_photo_forms" + (f" {shlex.join(argv)}" if argv else "")
     with tempfile.TemporaryDirectory() as folder:
         work = Path(folder)
-        timing = times(records[0], work)
+        timing, timing_faces = times(records, work)
         mono_rows, mono = monochrome_rows(records, work)
         rows, pooled = forms(records, work)
     colour_low = min(m[1] for name in ("colour",) for m in mono[name])
@@ -192,6 +242,8 @@ def main(argv: list[str] | None = None) -> None:
     toned_high = max(m[1] for name in ("sepia (JPEG)", "cyanotype (JPEG)") for m in mono[name])
     grey_high = max(m[0] for m in mono["black and white (JPEG)"])
     from vto_core.photo.monochrome import GREY_CHROMA, MIN_SPREAD
+
+    added_ms = [float(row[-1]) for row in timing_faces]
 
     text = (f"# Photos as phones give them\n\nMachine: {machine()}. Reproduce: `{command}`.\n\n"
             "## Orientation and tilt\n\nCIEDE2000 of each form's Fast estimate (apparent colour on default sources "
@@ -209,8 +261,14 @@ def main(argv: list[str] | None = None) -> None:
             f"threshold), the lowest desaturated one {desaturated_low:.2f} ({desaturated_low / MIN_SPREAD:.1f}x); the "
             f"highest toned print {toned_high:.2f} ({MIN_SPREAD / max(toned_high, 1e-9):.1f}x under it); the highest "
             f"black-and-white grey chroma {grey_high:.2f} (threshold {GREY_CHROMA}).\n\n"
-            "## Times\n\nms, best of 5, on the first portrait resized to about 1 megapixel.\n\n"
-            + table(["step", "ms"], timing) + "\n")
+            "## Times\n\nWhat orientation and roll add to Match: ms on each portrait resized to about a megapixel, "
+            "median of 15 runs of each way timed in turn (before, now, before, ...), and the median of the paired "
+            "differences. 'As before' is the face read with one refine pass and no turn-over check; an upright face "
+            "reads as before, and only one rolled past 5 degrees is read again until its roll settles.\n\n"
+            + table(["step (first portrait)", "ms", "added"], timing) + "\n\n"
+            + table(["portrait", "mesh passes, before / now", "face read ms, before / now", "added"], timing_faces)
+            + f"\n\nAdded by the face read: median {np.median(added_ms):+.1f} ms over the portraits, largest "
+            f"{max(added_ms):+.1f}.\n")
     RESULT.write_text(text)
     print(text)
 

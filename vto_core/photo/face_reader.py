@@ -151,13 +151,16 @@ def clean(image: np.ndarray) -> np.ndarray:
     return np.fmin(np.fmax(image, 0.0), 1.0).astype(np.float32, copy=False)
 
 
+def is_clean(image: np.ndarray) -> bool:
+    """Whether `image` is float32 with every value in [0, 1] (what clean gives): NaN fails both bounds."""
+    return image.dtype == np.float32 and image.size > 0 and image.min() >= 0.0 and image.max() <= 1.0
+
+
 def clean_photo(image: np.ndarray) -> np.ndarray:
     """clean(image) for a whole photo, without a copy where there is nothing to clean: the image itself where it is
     float32 with every value in [0, 1] (a 64-megapixel photo is 768 MB a copy); else a cleaned float32 copy."""
     image = np.asarray(image)
-    if image.dtype == np.float32 and image.size and image.min() >= 0.0 and image.max() <= 1.0:  # NaN fails both
-        return image
-    return clean(np.asarray(image, np.float32))
+    return image if is_clean(image) else clean(np.asarray(image, np.float32))
 
 
 def reduce(image: np.ndarray, factor: int) -> np.ndarray:
@@ -171,9 +174,11 @@ def reduce(image: np.ndarray, factor: int) -> np.ndarray:
     taps = min(factor, TAPS)
     offsets = np.unique(((np.arange(taps) + 0.5) * factor / taps).astype(int))
     total = np.zeros((rows, cols, image.shape[2]), np.float32)
+    ready = is_clean(image)  # one check over the block (~1 ms a megapixel) saves cleaning each strided tap
     for dy in offsets:
         for dx in offsets:
-            total += clean(image[dy::factor, dx::factor][:rows, :cols])
+            tap = image[dy::factor, dx::factor][:rows, :cols]
+            total += tap if ready else clean(tap)
     return total / np.float32(offsets.size ** 2)
 
 

@@ -385,7 +385,7 @@ class HeadFrame:
         mask = np.zeros(self.shape, np.float32)
         fine = min(TO_IMAGE_UPSAMPLE, max(1, math.ceil(1 / self.scale)))
         rows, cols = self.rows * fine, self.cols * fine
-        hair = linear_weights(rows, self.rows) @ score @ linear_weights(cols, self.cols).T > 0.5
+        hair = linear_resize(score, rows, cols) > 0.5
         if not self.turn:  # the grid along the photo's axes: a column's cell depends on x alone, a row's on y alone
             col = np.floor((x0 + np.arange(w) + 0.5 - self.low[0]) * self.scale * fine).astype(np.intp)
             row = np.floor((y0 + np.arange(h) + 0.5 - self.low[1]) * self.scale * fine).astype(np.intp)
@@ -408,16 +408,20 @@ class HeadFrame:
         return mask
 
 
-def linear_weights(size: int, work: int) -> np.ndarray:
-    """(size, work) linear interpolation from `work` pixels onto `size` spanning the same extent (centres aligned,
-    edges repeated): a separable bilinear resize is weights(h) @ image @ weights(w).T."""
+def linear_taps(size: int, work: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Linear interpolation from `work` pixels onto `size` spanning the same extent (centres aligned, edges repeated):
+    (the lower neighbour (size,), the upper one (size,), the upper one's weight (size,))."""
     position = np.clip((np.arange(size) + 0.5) * work / size - 0.5, 0, work - 1)
-    low = np.floor(position).astype(int)
-    high = np.minimum(low + 1, work - 1)
-    weights = np.zeros((size, work))
-    weights[np.arange(size), low] += 1 - (position - low)
-    weights[np.arange(size), high] += position - low
-    return weights
+    low = np.floor(position).astype(np.intp)
+    return low, np.minimum(low + 1, work - 1), position - low
+
+
+def linear_resize(values: np.ndarray, rows: int, cols: int) -> np.ndarray:
+    """(r, c) -> (rows, cols) bilinear (linear_taps along each axis): two neighbours a pixel per axis."""
+    low, high, weight = linear_taps(rows, values.shape[0])
+    across = values[low] * (1 - weight)[:, None] + values[high] * weight[:, None]
+    low, high, weight = linear_taps(cols, values.shape[1])
+    return across[:, low] * (1 - weight) + across[:, high] * weight
 
 
 def is_hair_colour(lab: np.ndarray) -> bool:

@@ -172,9 +172,8 @@ def test_helpers():
     allowed = np.ones((5, 5), bool)
     allowed[2, :] = False
     assert hl.grow(seed, allowed).sum() == 10  # the rows above the wall only
-    weights = hl.linear_weights(6, 3)
-    assert np.allclose(weights.sum(1), 1) and np.allclose(weights @ np.array([0.0, 1.0, 2.0]),
-                                                          [0, 0.25, 0.75, 1.25, 1.75, 2])
+    assert np.allclose(hl.linear_resize(np.array([[0.0, 1.0, 2.0]]), 2, 6), [[0, 0.25, 0.75, 1.25, 1.75, 2]] * 2)
+    assert np.allclose(hl.linear_resize(np.array([[0.0], [4.0]]), 4, 1)[:, 0], [0, 1, 3, 4])
     model = hl.Gaussian.fit(np.random.default_rng(0).normal((50, 5, 10), 3, (200, 3)))
     assert model.log_likelihood(np.array([50.0, 5, 10])) > model.log_likelihood(np.array([80.0, 5, 10]))
     assert hl.Gaussian.fit(np.zeros((3, 3))) is None
