@@ -196,7 +196,8 @@ def times(records: list[dict], work: Path) -> tuple[list[list], list[list]]:
     stored, shown, added = paired_ms(lambda: read_image(path, as_shown=False), lambda: read_image(path))
     first = [["read the file: as stored / turned as shown (Orientation 1)", f"{stored:.1f} / {shown:.1f}",
               f"{added:+.1f}"]]
-    old, new, added = paired_ms(lambda: read_as_before(tilted(photo, 30)), lambda: reader.read(tilted(photo, 30)), 5)
+    turned = tilted(photo, 30)
+    old, new, added = paired_ms(lambda: read_as_before(turned), lambda: reader.read(turned), 5)
     first.append(["face read, tilted 30 degrees: as before / now", f"{old:.1f} / {new:.1f}", f"{added:+.1f}"])
     check = paired_ms(lambda: None, lambda: monochrome_problem(photo, "lipstick"))[1]
     first.append(["monochrome check", f"{check:.1f}", ""])
