@@ -53,12 +53,11 @@ class ColourImitator:
 
     def fit(self, target: np.ndarray, start: np.ndarray, prior_weight: float, wraps: np.ndarray,
             held: dict[int, float] | None = None, skin_lab: np.ndarray | None = None,
-            iterations: int = 40, anchor: np.ndarray | None = None) -> np.ndarray:  # 12 left dark hair unsettled
+            iterations: int = 40) -> np.ndarray:  # 12 left dark hair short of where it settles
         """The unit vector (m,) near `start` (m,) whose predicted statistics (on a face with skin `skin_lab`, where the
         imitator takes one) are closest to `target` (F,): Levenberg-Marquardt on [statistics - target;
         prior_weight (u - start)] inside the unit box, `held` dimensions fixed. Starts (S, m) give S fits (S, m), each
-        near its own start, run side by side (two network calls a step for all of them). anchor: (m,) or (S, m) what
-        the prior pulls towards, where not the starts themselves."""
+        near its own start, run side by side (two network calls a step for all of them)."""
         target = np.asarray(target, np.float64)
         if not np.isfinite(target).all():
             raise VtoError("the colour imitator's fit needs finite target statistics")
@@ -67,11 +66,10 @@ class ColourImitator:
             starts[:, i] = value
         count, size = starts.shape
         free = np.array([i not in (held or {}) for i in range(size)])
-        anchors = starts if anchor is None else np.broadcast_to(np.asarray(anchor, np.float64), starts.shape)
         wraps = np.asarray(wraps, bool)
 
         def residual(units: np.ndarray) -> np.ndarray:  # (S, k, m) -> (S, k, F + m)
-            shift = units - anchors[:, None]
+            shift = units - starts[:, None]
             shift = np.where(wraps, (shift + 0.5) % 1.0 - 0.5, shift)
             seen = self.statistics(units.reshape(-1, size), skin_lab).reshape(count, units.shape[1], -1)
             return np.concatenate([seen - target, prior_weight * shift], axis=2)

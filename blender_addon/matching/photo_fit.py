@@ -56,15 +56,9 @@ PRIOR_WEIGHT = {"lipstick": 8.0, "hair": 2.0}
 # estimate until the default scene shows the photo's colour, light and skin included, and loses to the encoder alone
 # on renders with the source hidden (-5.3 dB): Fast is the encoder's estimate of the photo with its light taken out
 # (+0.06 and -0.13 dB against the encoder alone at seeds 9001 and 4242).
-# Hair: the stage matches the hair to the swatch whatever the scene, and the fit gains (+10.2 dB, hair_encoder.md).
+# Hair: the stage matches the hair to the swatch whatever the scene, and the fit gains (+9.6 dB, hair_encoder.md).
 FAST_FITS = {"lipstick": False, "hair": True}
 HUE_TURNS = (0.0, 0.25, 0.5, 0.75)  # where on the hue circle Fast's colour fit starts, from the encoder's hue
-SPREAD_STARTS = 12  # and from this many fixed points over the box (fit_colour: 16 fits side by side)
-# Fast's colour fit pulls towards the encoder's estimate this hard (Better and Best keep PRIOR_WEIGHT). For hair, with
-# the spread starts, 3x the renders' pull: on renders with the source hidden (seed 9001, 48 looks) 34.3 dB against
-# 33.7 from the encoder's four hues at PRIOR_WEIGHT, and a portrait tilted -45..45 degrees moved a median 0.5
-# CIEDE2000 from upright against 0.8 (8 portraits; benchmarks/results/photo_forms.md has all 18).
-FAST_PRIOR_WEIGHT = {"lipstick": PRIOR_WEIGHT["lipstick"], "hair": 3 * PRIOR_WEIGHT["hair"]}
 # The qualities the panel offers: those that beat the one below them. Hair: on renders with the source hidden
 # (light.md). Lips: on products tried on the held-out faces and read back (photo_sources.md, the round trip), where
 # Better, fitted in the photo's own scene, gains 1.1 dB over Fast; Best (4x the renders) gains 0.9, no more than
@@ -258,12 +252,6 @@ def fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
     return fit_colour(spec, region, start, imitator_path)
 
 
-def spread_starts(size: int, count: int | None = None) -> np.ndarray:
-    """(count, size) fixed points spread over the unit box (SPREAD_STARTS by default): where Fast's colour fit also
-    starts. The same on every call (a seeded generator), so an estimate is repeatable."""
-    return np.random.default_rng(0).random((SPREAD_STARTS if count is None else count, size))
-
-
 def fit_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
                imitator_path: Path | None = None) -> tuple[dict[str, float], str]:
     """The colour imitator's fit: the modelled values (raw) near `start` whose default-scene statistics, as the colour
@@ -283,18 +271,12 @@ def fit_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start:
     target = region_statistics(*region)
     unit, wraps, held = fit_start(spec, start)
     skin = None if light is None else light[1]
-    # The statistics leave the parameters loosely tied (brightness, exposure and gamma all lift the tones), and the
-    # imitator's landscape has many valleys of near-equal depth: from the encoder's hue alone, the same hair turned a
-    # few degrees settled 3-8 CIEDE2000 apart. So the fit also starts from the encoder's hue turned by quarter turns (a
-    # grey hair's hue is read at random, and the imitator does not wrap) and from SPREAD_STARTS fixed points, each
-    # pulled towards the encoder's estimate; the fit of least cost (statistics and pull) is kept.
-    weight = FAST_PRIOR_WEIGHT[spec.renderer]
-    turns = HUE_TURNS if wraps.any() else (0.0,)
-    starts = np.concatenate([np.stack([np.where(wraps, (unit + turn) % 1.0, unit) for turn in turns]),
-                             spread_starts(spec.size)])
-    fits = imitator.fit(target, starts, weight, wraps, held, skin, anchor=unit)
-    pull = weight * parameter_difference(fits, unit, wraps)
-    found = fits[np.argmin(((imitator.statistics(fits, skin) - target) ** 2).sum(axis=1) + (pull ** 2).sum(axis=1))]
+    # A hue is a turn: the encoder reads the hue of a near-grey hair (a cast of a few units of chroma) at random, and a
+    # fit settles where it starts on the circle (the imitator does not wrap, so a fit does not cross hue 0). The fit is
+    # also run from the hue turned by quarter turns, and the one whose statistics come nearest the photo's is kept.
+    starts = np.stack([np.where(wraps, (unit + turn) % 1.0, unit) for turn in (HUE_TURNS if wraps.any() else (0.0,))])
+    fits = imitator.fit(target, starts, PRIOR_WEIGHT[spec.renderer], wraps, held, skin)
+    found = fits[np.argmin(((imitator.statistics(fits, skin) - target) ** 2).sum(axis=1))]
     fitted = spec.values(spec.denormalise(found))
     return {name: float(fitted[name]) for name in spec.modelled}, ""
 

@@ -60,16 +60,6 @@ def test_the_prior_holds_what_the_target_cannot_move_and_held_values_stay(imitat
     assert held[0] == 0.2
 
 
-def test_the_prior_pulls_towards_an_anchor_apart_from_the_starts(imitator):
-    starts = np.array([[0.1, 0.1, 0.1], [0.9, 0.9, 0.9]])
-    anchor = np.array([0.5, 0.4, 0.3])
-    target = np.array([0.9, 0.5, 0.5]) @ WEIGHTS + BIAS
-    found = imitator.fit(target, starts, 200.0, np.zeros(3, bool), anchor=anchor)
-    assert np.abs(found - anchor).max() < 0.1  # both fits end near the anchor, wherever they began
-    own = imitator.fit(target, starts, 200.0, np.zeros(3, bool))
-    assert np.abs(own - starts).max() < 0.1  # without one, each near its own start
-
-
 def test_the_fit_stays_in_the_box_and_wraps_hue(imitator):
     far = np.array([3.0, 2.0, -1.0]) @ WEIGHTS + BIAS  # out of reach
     found = imitator.fit(far, np.full(3, 0.5), 0.0, np.array([False, True, False]))
