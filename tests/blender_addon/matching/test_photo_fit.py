@@ -180,3 +180,39 @@ def test_fast_starts_its_colour_fit_round_the_hue_circle():
         return float(np.sum((imitator.statistics(u) - target) ** 2))
 
     assert note == "" and miss(spec.normalise(spec.vector(fitted))) < 0.2 * miss(one_start)
+
+
+def test_fast_keeps_the_fit_nearest_the_encoder_among_those_that_tie(monkeypatch):
+    """Colour fits whose statistics miss the photo's within NEAR_TIE of the least are told apart by the imitator's
+    error, not the photo: the one nearest the encoder's estimate is kept; one clearly nearer the photo still wins."""
+    import vto_core.colour_imitator
+    from blender_addon.matching import photo_fit
+    from blender_addon.shipped import MODELS
+    from vto_core.appearance import region_statistics
+    from vto_core.inference import EncoderSession
+
+    spec = EncoderSession(MODELS / "hair_encoder.onnx").spec
+    region = (np.full((16, 16, 3), 0.3, np.float32), np.ones((16, 16), np.float32))
+    target = region_statistics(*region)
+    start = {"brightness": 0.0, "contrast": 1.0, "exposure": 1.0, "gamma": 1.0, "hue": 0.5, "saturation": 1.0,
+             "shine": 0.2}
+    unit = photo_fit.fit_start(spec, start)[0]
+
+    class Imitator:
+        def __init__(self, misses):
+            self.misses, self.spec, self.typical_skin = np.asarray(misses, np.float64), spec, None
+
+        def fit(self, target, starts, *args):  # four fits, the nth moved n/10 from the encoder's estimate
+            return np.stack([np.clip(unit + 0.1 * n, 0, 1) for n in range(len(starts))])
+
+        def statistics(self, fits, skin=None):
+            return target + np.sqrt(self.misses)[:, None] * np.eye(len(target))[0]
+
+    def chosen(misses):
+        monkeypatch.setattr(vto_core.colour_imitator, "cached_imitator", lambda path: Imitator(misses))
+        found = spec.normalise(spec.vector(photo_fit.fit_colour(spec, region, start)[0]))
+        return int(np.argmin([np.abs(found - np.clip(unit + 0.1 * n, 0, 1)).max() for n in range(4)]))
+
+    assert chosen([1.1, 1.0, 9.0, 1.05]) == 0  # a tie: the nearest the encoder
+    assert chosen([2.0, 1.0, 9.0, 1.05]) == 1  # the first misses clearly more: the least miss nearest the encoder
+    assert chosen([9.0, 9.0, 1.0, 9.0]) == 2
