@@ -241,6 +241,24 @@ def retrying(action):
     raise RuntimeError(f"Blender did not allow writing ID data for 60 s: {refusal}")
 
 
+def button_back_at(area, shot, where, seconds=15.0):
+    """Wait until Match is drawn at `where` (x, y) again (after an undo, the panel redraws a few seconds late on two
+    busy cores); RuntimeError where it is still elsewhere after `seconds`: the panel's layout changed."""
+    found = None
+    for attempt in range(int(seconds * 2) + 1):
+        area.tag_redraw()
+        if attempt:
+            yield 0.5
+        grab(shot, region_of(area))
+        try:
+            found = find_button(region_of(area), shot)
+        except RuntimeError:
+            continue
+        if found == where:
+            return
+    raise RuntimeError(f"Match moved after the undo, to {found} from {where}: the panel's layout changed")
+
+
 def undo():
     """A real ctrl+z, over the window."""
     xdo("key", "ctrl+z")
@@ -364,9 +382,7 @@ def script():
     yield from undo()
     undone = lips_inputs()
     RESULT["reference_after_undo"] = lips_props().image_path
-    grab("lips_undone", region_of(props_area))
-    if find_button(region_of(props_area), "lips_undone") != (x, y):
-        raise RuntimeError("Match moved after the undo: the panel's layout changed")
+    yield from button_back_at(props_area, "lips_undone", (x, y))
     xdo("mousemove", x, y)
     yield 0.5
     second, second_ms = yield from click_match(lips_props, lips_inputs, "lips click 2")
