@@ -205,10 +205,13 @@ def click_better(record, props, inputs, name, region):
     grab(f"{name}_better", region)
 
 
-def button_when_drawn(area, shot, seconds=15.0):
+def button_when_drawn(area, shot, seconds=15.0, where=None):
     """find_button on a fresh screenshot of `area`, again every half second while the panel has not drawn its buttons
-    yet (on two busy cores the panel lays out after Match's preview a few seconds late). A generator: returns (x, y)."""
-    for attempt in range(int(seconds * 2) + 1):
+    yet (on two busy cores the panel lays out after Match's preview, or redraws after an undo, a few seconds late). A
+    generator: returns (x, y). where: wait until Match is drawn there again; RuntimeError where it is still elsewhere
+    after `seconds`: the panel's layout changed."""
+    found, last = None, int(seconds * 2)
+    for attempt in range(last + 1):
         area.tag_redraw()
         if attempt:
             yield 0.5
@@ -216,12 +219,14 @@ def button_when_drawn(area, shot, seconds=15.0):
         try:
             found = find_button(region_of(area), shot)
         except RuntimeError:
-            if attempt == int(seconds * 2):
+            if attempt == last and where is None:
                 raise
             continue
-        if attempt:
-            log(f"(the buttons were drawn after {attempt / 2:.1f} s more)")
-        return found
+        if where is None or found == where:
+            if attempt:
+                log(f"(the buttons were drawn after {attempt / 2:.1f} s more)")
+            return found
+    raise RuntimeError(f"Match moved after the undo, to {found} from {where}: the panel's layout changed")
 
 
 def retrying(action):
@@ -239,24 +244,6 @@ def retrying(action):
             refusal = str(exc)
         yield 0.1
     raise RuntimeError(f"Blender did not allow writing ID data for 60 s: {refusal}")
-
-
-def button_back_at(area, shot, where, seconds=15.0):
-    """Wait until Match is drawn at `where` (x, y) again (after an undo, the panel redraws a few seconds late on two
-    busy cores); RuntimeError where it is still elsewhere after `seconds`: the panel's layout changed."""
-    found = None
-    for attempt in range(int(seconds * 2) + 1):
-        area.tag_redraw()
-        if attempt:
-            yield 0.5
-        grab(shot, region_of(area))
-        try:
-            found = find_button(region_of(area), shot)
-        except RuntimeError:
-            continue
-        if found == where:
-            return
-    raise RuntimeError(f"Match moved after the undo, to {found} from {where}: the panel's layout changed")
 
 
 def undo():
@@ -382,7 +369,7 @@ def script():
     yield from undo()
     undone = lips_inputs()
     RESULT["reference_after_undo"] = lips_props().image_path
-    yield from button_back_at(props_area, "lips_undone", (x, y))
+    yield from button_when_drawn(props_area, "lips_undone", where=(x, y))
     xdo("mousemove", x, y)
     yield 0.5
     second, second_ms = yield from click_match(lips_props, lips_inputs, "lips click 2")
