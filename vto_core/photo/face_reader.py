@@ -167,42 +167,61 @@ def reduce(image: np.ndarray, factor: int) -> np.ndarray:
     """(H, W, C) -> (H // factor, W // factor, C) float32 cleaned: each block of factor x factor pixels as the mean of
     up to TAPS x TAPS evenly spread pixels of it (the exact block mean when factor <= TAPS). The remainder rows and
     columns at the bottom and right are dropped, so reduced pixel i covers source pixels [i * factor, (i+1) * factor).
-    The cost grows with the output, not the input: a 12-megapixel photo reduces as fast as a small one."""
+    Only the taps' rows are read: a 12-megapixel photo reduced 30 times reads a tenth of its rows."""
     if factor <= 1:
         return clean(image)
     rows, cols = image.shape[0] // factor, image.shape[1] // factor
     taps = min(factor, TAPS)
     offsets = np.unique(((np.arange(taps) + 0.5) * factor / taps).astype(int))
-    total = np.zeros((rows, cols, image.shape[2]), np.float32)
-    ready = is_clean(image)  # one check over the block (~1 ms a megapixel) saves cleaning each strided tap
-    for dy in offsets:
-        for dx in offsets:
-            tap = image[dy::factor, dx::factor][:rows, :cols]
-            total += tap if ready else clean(tap)
+    # The taps' rows summed first (contiguous runs), then the taps' columns of that sum: the same taps as summing each
+    # strided tap, in half the time.
+    lines = [image[dy::factor][:rows, :cols * factor] for dy in offsets]
+    if not all(is_clean(line) for line in lines):  # one check over the rows read saves cleaning each
+        lines = [clean(line) for line in lines]
+    summed = lines[0].copy()
+    for line in lines[1:]:
+        summed += line
+    total = summed[:, offsets[0]::factor][:, :cols].copy()
+    for dx in offsets[1:]:
+        total += summed[:, dx::factor][:, :cols]
     return total / np.float32(offsets.size ** 2)
 
 
 def sample_bilinear(image: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     """(h, w, C) sampled at continuous points xs, ys (...) (pixel i's centre at i + 0.5) -> (C, ...) float32,
-    channels first; black (0) outside the image, blending into it over the border pixel."""
+    channels first; black (0) outside the image, blending into it over the border pixel. A grid (rows, cols) whose xs
+    vary along its columns only and ys along its rows only (an axis-aligned map) is sampled a row, then a column, at a
+    time: the same values for a third of the work."""
     height, width, channels = image.shape
     # A border of zeros: every neighbour outside the image reads 0 once its index is clipped into the border.
     padded = np.zeros((channels, height + 2, width + 2), np.float32)
     padded[:, 1:-1, 1:-1] = image.transpose(2, 0, 1)
+    if xs.ndim == 2 and (xs == xs[:1]).all() and (ys == ys[:, :1]).all():
+        top, bottom, wy = bilinear_taps(ys[:, 0], height)
+        rows = padded[:, top] * (1 - wy)[:, None] + padded[:, bottom] * wy[:, None]
+        left, right, wx = bilinear_taps(xs[0], width)
+        return np.ascontiguousarray(rows[:, :, left] * (1 - wx) + rows[:, :, right] * wx)
     flat = padded.reshape(channels, -1)
-    fx = xs.astype(np.float32).ravel() + np.float32(0.5)  # coordinates in the padded image's pixel-index space
-    fy = ys.astype(np.float32).ravel() + np.float32(0.5)
-    x0, y0 = np.floor(fx), np.floor(fy)
-    wx, wy = fx - x0, fy - y0
-    left, right = (np.clip(x0 + i, 0, width + 1).astype(np.intp) for i in (0, 1))
-    top, bottom = (np.clip(y0 + i, 0, height + 1).astype(np.intp) * (width + 2) for i in (0, 1))
+    left, right, wx = bilinear_taps(xs.ravel(), width)
+    top, bottom, wy = bilinear_taps(ys.ravel(), height)
+    top, bottom = top * (width + 2), bottom * (width + 2)
     upper = np.take(flat, top + left, axis=1) * (1 - wx) + np.take(flat, top + right, axis=1) * wx
     lower = np.take(flat, bottom + left, axis=1) * (1 - wx) + np.take(flat, bottom + right, axis=1) * wx
     return (upper * (1 - wy) + lower * wy).reshape((channels,) + xs.shape)
 
 
-def warp(image: np.ndarray, matrix: np.ndarray, size: int) -> np.ndarray:
-    """(H, W, 3) seen through an affine map -> (3, size, size) float32 in [0, 1], channels first.
+def bilinear_taps(points: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Continuous coordinates (N,) along an axis of `size` pixels (pixel i's centre at i + 0.5) -> (the lower and the
+    upper neighbour's index in the axis padded by a pixel each side (N,) intp, the upper one's weight (N,) float32)."""
+    padded = points.astype(np.float32) + np.float32(0.5)  # coordinates in the padded axis's pixel-index space
+    low = np.floor(padded)
+    return (np.clip(low, 0, size + 1).astype(np.intp), np.clip(low + 1, 0, size + 1).astype(np.intp),
+            padded - low)
+
+
+def warp(image: np.ndarray, matrix: np.ndarray, size: int, repeat_edges: bool = False) -> np.ndarray:
+    """(H, W, 3) seen through an affine map -> (3, size, size) float32 in [0, 1], channels first; black beyond the
+    image, or with `repeat_edges` its edge pixels repeated there.
 
     matrix (2, 3) maps output coordinates (u, v) (pixel centres at +0.5) to image coordinates. The part of the image
     that the output covers is first reduced (`reduce`) so that the bilinear step shrinks by less than 2: cheap and
@@ -219,6 +238,8 @@ def warp(image: np.ndarray, matrix: np.ndarray, size: int) -> np.ndarray:
     u, v = np.meshgrid(centres, centres)
     xs = (matrix[0, 0] * u + matrix[0, 1] * v + matrix[0, 2] - x0) / factor
     ys = (matrix[1, 0] * u + matrix[1, 1] * v + matrix[1, 2] - y0) / factor
+    if repeat_edges:  # a point beyond the region reads the nearest edge pixel's centre
+        xs, ys = np.clip(xs, 0.5, region.shape[1] - 0.5), np.clip(ys, 0.5, region.shape[0] - 0.5)
     return np.clip(sample_bilinear(region, xs, ys), 0.0, 1.0)
 
 

@@ -53,6 +53,11 @@ CLOTHES_BELOW = ((0.3, 0.6), (0.8, 2.0))
 NECK_HALF_WIDTH = 0.4  # face widths: below the chin, hair is looked for only this far or further from the centre line
 PERSON, BACKGROUND = 0.5, 0.1  # segmenter probabilities: the person at and above; the background below
 HAIR_CANDIDATE = 0.25  # hair may reach where the person probability is this low (fine strands against the backdrop)
+# A tight crop (less than CROP_SHARE of the head's region in the photo) fills the person model's input with a face,
+# and the model takes the hair at the crop's edges for the backdrop. The crop is shown to it once more, zoomed out
+# CROP_ZOOM times with its edges repeated beyond the photo, where it sees a head with hair; a pixel is the person's
+# where either view says so.
+CROP_SHARE, CROP_ZOOM = 0.3, 1.3  # the 18 portraits: 0.38-1.1 of the region in frame; their tight crops 0.12-0.18
 MIN_SEED_SHARE = 0.25  # of a seed's area that must be the person, in frame (and unlike the skin, over the forehead)
 MIN_HAIR_SKIN_DISTANCE = 10.0  # CIELAB distance of the seed's median from the skin's: nearer is a bald head
 # Hair colours: the hair patches of the 12 tuning portraits have chroma 2-29, the 22 hair presets (fashion colours
@@ -73,8 +78,8 @@ HAIR_SPREAD = 0.35
 GROW_ROUNDS = 3  # hair models refitted on the hair found, then the hair found again
 UPRIGHT_ROLL = math.radians(5)  # a head rolled more than this is worked on along its own axes, turned upright
 PADDING_LEVEL = 0.5 / 255  # every channel under this is a canvas's pure black (8-bit 0), where it meets the edge
-TO_IMAGE_ROWS = 256  # photo rows the hair's mask is drawn in at a time
-TO_IMAGE_UPSAMPLE = 4  # the work grid score is resized up to this many times, then each photo pixel takes its nearest
+TO_IMAGE_ROWS = 256  # photo rows a tilted head's hair mask is drawn in at a time
+TO_IMAGE_UPSAMPLE = 4  # a tilted head's score is resized up to this many times, then a photo pixel takes its nearest
 
 
 @dataclass
@@ -89,7 +94,8 @@ class HairFound:
 
 @dataclass
 class Gaussian:
-    """A colour model: mean (3,), inverse covariance (3, 3) and log-determinant, in CIELAB."""
+    """A colour model: mean (3,), inverse covariance (3, 3) and log-determinant, in CIELAB (float64; a grid of
+    pixels is scored in its own precision, float32 from srgb_to_lab)."""
 
     mean: np.ndarray
     precision: np.ndarray
@@ -100,19 +106,22 @@ class Gaussian:
         """(N, 3) -> the model, its covariance widened by `floor`; None for fewer than 8 samples."""
         if len(lab) < 8:
             return None
-        covariance = np.cov(lab, rowvar=False) + floor
+        mean = lab.mean(axis=0, dtype=np.float64)
+        centred = lab - mean
+        covariance = centred.T @ centred / (len(lab) - 1) + floor
         # The 3 x 3 inverse by its adjugate (rows: cross products of the columns), not LAPACK, whose threads stall a
         # busy machine; the floor keeps the determinant positive.
         adjugate = np.cross(covariance[[1, 2, 0]], covariance[[2, 0, 1]])
         determinant = float(adjugate[0] @ covariance[0])
-        return cls(lab.mean(axis=0), adjugate / determinant, math.log(determinant))
+        return cls(mean, adjugate / determinant, math.log(determinant))
 
     def distance(self, lab: np.ndarray) -> np.ndarray:
         """(..., 3) -> (...) squared Mahalanobis distance from the mean."""
-        d = [lab[..., i] - self.mean[i] for i in range(3)]  # the quadratic form written out: no BLAS call per pixel
-        p = self.precision
-        return (p[0, 0] * d[0] * d[0] + p[1, 1] * d[1] * d[1] + p[2, 2] * d[2] * d[2]
-                + 2 * (p[0, 1] * d[0] * d[1] + p[0, 2] * d[0] * d[2] + p[1, 2] * d[1] * d[2]))
+        # The quadratic form written out (no BLAS call per pixel), with Python floats, which keep lab's precision.
+        d = [lab[..., i] - float(self.mean[i]) for i in range(3)]
+        p = self.precision.tolist()
+        return (p[0][0] * d[0] * d[0] + p[1][1] * d[1] * d[1] + p[2][2] * d[2] * d[2]
+                + 2 * (p[0][1] * d[0] * d[1] + p[0][2] * d[0] * d[2] + p[1][2] * d[1] * d[2]))
 
     def log_likelihood(self, lab: np.ndarray) -> np.ndarray:
         """(..., 3) -> (...) log density up to a shared constant."""
@@ -126,10 +135,11 @@ class HairLocator:
         self.segmenter = cpu_session(segmenter_path, threads, "person model")
         self.segmenter_input = self.segmenter.get_inputs()[0].name
 
-    def person(self, image: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    def person(self, image: np.ndarray, matrix: np.ndarray, repeat_edges: bool = False) -> np.ndarray:
         """(SEGMENTER_SIZE, SEGMENTER_SIZE) person probability of the square that `matrix` (2, 3) maps from the model's
-        input onto (H, W, 3)."""
-        (probability,) = self.segmenter.run(None, {self.segmenter_input: warp(image, matrix, SEGMENTER_SIZE)[None]})
+        input onto (H, W, 3); beyond the photo the square is black, or with `repeat_edges` the photo's edges."""
+        square = warp(image, matrix, SEGMENTER_SIZE, repeat_edges)
+        (probability,) = self.segmenter.run(None, {self.segmenter_input: square[None]})
         return np.nan_to_num(probability[0, 0])
 
     def locate(self, image: np.ndarray, face: FaceRead, light: PhotoLight | None = None) -> HairFound:
@@ -146,8 +156,12 @@ class HairLocator:
         rgb = frame.sample(image)
         frame.inside &= ~padding(rgb, frame.inside)
         rgb = rgb if light is None else neutral_photo(rgb, light)
-        person = frame.sample_person(self.person(image, frame.segmenter_matrix()))
-        lab = srgb_to_lab(rgb).astype(np.float64)
+        square = frame.segmenter_matrix()
+        person = frame.sample_person(self.person(image, square), square)
+        if frame.share_in_photo() < CROP_SHARE:
+            wider = frame.segmenter_matrix(CROP_ZOOM)
+            person = np.maximum(person, frame.sample_person(self.person(image, wider, repeat_edges=True), wider))
+        lab = srgb_to_lab(rgb)
         oval = frame.polygon(face.landmarks[FACE_OVAL])
         in_photo = np.where(frame.inside, person, np.nan)  # beyond the photo: neither the person nor the background
         models = colour_models(lab, oval & ~frame.above_brows(), in_photo, frame.clothes())
@@ -162,7 +176,7 @@ class HairLocator:
                 break
             margin = hair_margin(lab, parts, others, frame.inside)
             hair = grow(seed & (margin > 0), candidates & (margin > 0))
-        score = box_blur(np.where(hair, 1.0, 0.0), frame.inside)
+        score = box_blur(hair.astype(np.float32), frame.inside)
         mask = frame.to_image(score)
         if mask.sum() < MIN_HAIR_SHARE * frame.oval_area(face.landmarks[FACE_OVAL]):
             raise VtoError("no hair found: too little hair beside the face to read (bald, or a hat?)")
@@ -275,23 +289,30 @@ class HeadFrame:
         return np.clip(sample_bilinear(region, (self.xs - x0) / factor, (self.ys - y0) / factor), 0, 1
                        ).transpose(1, 2, 0)
 
-    def segmenter_matrix(self) -> np.ndarray:
+    def segmenter_matrix(self, zoom: float = 1.0) -> np.ndarray:
         """(2, 3) the model's 256 x 256 input onto the square around the part of the region inside the photo (the head
         and shoulders, as a selfie frames them), along the grid's axes: the model, like a selfie, expects a person
-        upright, so a tilted head is shown to it as the same head upright would be."""
+        upright, so a tilted head is shown to it as the same head upright would be. zoom: the square's side times
+        this."""
         rows, cols = np.nonzero(self.inside)
         if not rows.size:
             rows, cols = np.array([0, self.rows - 1]), np.array([0, self.cols - 1])
-        side = (max(np.ptp(rows), np.ptp(cols)) + 1) / self.scale
+        side = (max(np.ptp(rows), np.ptp(cols)) + 1) / self.scale * zoom
         centre = np.array(self.from_work((cols.min() + cols.max() + 1) / 2, (rows.min() + rows.max() + 1) / 2))
         return square_matrix(centre, side, self.turn, SEGMENTER_SIZE)
 
-    def sample_person(self, probability: np.ndarray) -> np.ndarray:
-        """The segmenter's (256, 256) output on the work grid (rows, cols)."""
-        to_model = np.linalg.inv(np.vstack([self.segmenter_matrix(), [0.0, 0.0, 1.0]]))
+    def sample_person(self, probability: np.ndarray, square: np.ndarray) -> np.ndarray:
+        """The segmenter's (256, 256) output on the square (2, 3) (segmenter_matrix) -> on the work grid (rows,
+        cols)."""
+        to_model = np.linalg.inv(np.vstack([square, [0.0, 0.0, 1.0]]))
         u = to_model[0, 0] * self.xs + to_model[0, 1] * self.ys + to_model[0, 2]
         v = to_model[1, 0] * self.xs + to_model[1, 1] * self.ys + to_model[1, 2]
         return sample_bilinear(probability[..., None].astype(np.float32), u, v)[0] * self.inside
+
+    def share_in_photo(self) -> float:
+        """The share of the head's region that lies in the photo (1 for a portrait with room around the head)."""
+        region = (1 + REGION_UP + REGION_DOWN) * 2 * REGION_SIDE * self.work_area()
+        return float(self.inside.sum()) / region
 
     def polygon(self, points: np.ndarray) -> np.ndarray:
         """(rows, cols) bool: the work pixels inside the photo and inside a polygon (K, 2) given in photo pixels."""
@@ -311,11 +332,13 @@ class HeadFrame:
         """Where hair may start, each among the person's pixels: the band above the forehead and the strips beside the
         face, left and right, each less the face oval (`seed`, `beside`); the oval above the eyebrows where it is
         `unlike_skin` (rows, cols) bool (a fringe)."""
-        fringe = self.above_brows() & oval & person & unlike_skin
+        forehead = self.above_brows() & oval
         top = Seed("top", self.seed() & person & ~oval, self.seed_area())
         sides = [Seed(name, where & person & ~oval, self.beside_area())
                  for name, where in zip(("left", "right"), self.beside())]
-        return [top, Seed("fringe", fringe, self.fringe_area())] + sides
+        # A fringe is judged on the forehead in frame: a crop at the eyebrows shows a fringe's lower edge alone.
+        fringe = Seed("fringe", forehead & person & unlike_skin, min(self.fringe_area(), float(forehead.sum())))
+        return [top, fringe] + sides
 
     def above_brows(self) -> np.ndarray:
         """(rows, cols) bool: above the eyebrows' top."""
@@ -378,23 +401,24 @@ class HeadFrame:
         return 0.5 * abs(float(x @ np.roll(y, -1) - y @ np.roll(x, -1)))
 
     def to_image(self, score: np.ndarray) -> np.ndarray:
-        """(rows, cols) hair score in [0, 1] -> (H, W) float32 0/1 on the photo, over the region: the score resized
-        bilinearly (edges repeated) to up to TO_IMAGE_UPSAMPLE times the work grid, > 0.5, then each photo pixel takes
-        its nearest; in bands of TO_IMAGE_ROWS rows, so that a large photo costs no whole-photo grids."""
+        """(rows, cols) hair score in [0, 1] -> (H, W) float32 0/1 on the photo, over the region: where the grid lies
+        along the photo's axes, the score interpolated bilinearly (edges repeated) at each photo pixel on the grid,
+        > 0.5 (a row of the photo at a time, then a column); along a tilted head's, the score so resized to up to
+        TO_IMAGE_UPSAMPLE times the grid, > 0.5, each photo pixel taking its nearest, in bands of TO_IMAGE_ROWS rows
+        (a large photo costs no whole-photo grids)."""
         x0, y0, w, h = self.box
         mask = np.zeros(self.shape, np.float32)
+        if not self.turn:
+            cols = (x0 + np.arange(w) + 0.5 - self.low[0]) * self.scale
+            rows = (y0 + np.arange(h) + 0.5 - self.low[1]) * self.scale
+            (left, right), (top, bottom) = on_grid(cols, self.cols), on_grid(rows, self.rows)
+            mask[y0 + top:y0 + bottom, x0 + left:x0 + right] = linear_resize(score, rows[top:bottom],
+                                                                             cols[left:right]) > 0.5
+            return mask
         fine = min(TO_IMAGE_UPSAMPLE, max(1, math.ceil(1 / self.scale)))
         rows, cols = self.rows * fine, self.cols * fine
-        hair = linear_resize(score, rows, cols) > 0.5
-        if not self.turn:  # the grid along the photo's axes: a column's cell depends on x alone, a row's on y alone
-            col = np.floor((x0 + np.arange(w) + 0.5 - self.low[0]) * self.scale * fine).astype(np.intp)
-            row = np.floor((y0 + np.arange(h) + 0.5 - self.low[1]) * self.scale * fine).astype(np.intp)
-            in_cols, in_rows = (col >= 0) & (col < cols), (row >= 0) & (row < rows)
-            picked = hair[np.clip(row, 0, rows - 1)][:, np.clip(col, 0, cols - 1)]
-            mask[y0:y0 + h, x0:x0 + w] = picked & in_rows[:, None] & in_cols[None, :]
-            return mask
-        hair = hair.ravel()
-        # The work grid's col and row are affine in the photo's x and y: each a x + b y + c.
+        hair = (linear_resize(score, (np.arange(rows) + 0.5) / fine, (np.arange(cols) + 0.5) / fine) > 0.5).ravel()
+        # The fine grid's col and row are affine in the photo's x and y: each a x + b y + c.
         origin = self.to_work(np.zeros(2)) * fine
         (col_x, row_x), (col_y, row_y) = (self.to_work(np.eye(2)) * fine - origin).astype(np.float32)
         col_0, row_0 = origin.astype(np.float32)
@@ -408,20 +432,25 @@ class HeadFrame:
         return mask
 
 
-def linear_taps(size: int, work: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Linear interpolation from `work` pixels onto `size` spanning the same extent (centres aligned, edges repeated):
-    (the lower neighbour (size,), the upper one (size,), the upper one's weight (size,))."""
-    position = np.clip((np.arange(size) + 0.5) * work / size - 0.5, 0, work - 1)
+def on_grid(positions: np.ndarray, size: int) -> tuple[int, int]:
+    """Increasing positions (n,) on an axis of `size` work pixels -> the slice [start, stop) of those on it."""
+    return int(np.searchsorted(positions, 0.0)), int(np.searchsorted(positions, size))
+
+
+def linear_taps(positions: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Linear interpolation at positions (...) along an axis of `size` pixels (pixel i's centre at i + 0.5; edges
+    repeated): (the lower neighbour, the upper one, the upper one's weight), each shaped as positions."""
+    position = np.clip(positions - np.float32(0.5), 0, size - 1)
     low = np.floor(position).astype(np.intp)
-    return low, np.minimum(low + 1, work - 1), position - low
+    return low, np.minimum(low + 1, size - 1), (position - low).astype(np.float32)
 
 
-def linear_resize(values: np.ndarray, rows: int, cols: int) -> np.ndarray:
-    """(r, c) -> (rows, cols) bilinear (linear_taps along each axis): two neighbours a pixel per axis."""
+def linear_resize(values: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """(r, c) sampled at positions rows (R,) and cols (C,) (linear_taps along each axis) -> (R, C)."""
     low, high, weight = linear_taps(rows, values.shape[0])
-    across = values[low] * (1 - weight)[:, None] + values[high] * weight[:, None]
+    down = values[low] * (1 - weight)[:, None] + values[high] * weight[:, None]
     low, high, weight = linear_taps(cols, values.shape[1])
-    return across[:, low] * (1 - weight) + across[:, high] * weight
+    return down[:, low] * (1 - weight) + down[:, high] * weight
 
 
 def is_hair_colour(lab: np.ndarray) -> bool:
@@ -484,7 +513,7 @@ def others_likelihood(lab: np.ndarray, models: dict[str, Gaussian]) -> np.ndarra
     """(rows, cols, 3) CIELAB -> (rows, cols) the best log-likelihood of the colour models that are not the hair's
     (the skin, the background, the clothes); -inf where there are none."""
     if not models:
-        return np.full(lab.shape[:2], -np.inf)
+        return np.full(lab.shape[:2], -np.inf, lab.dtype)
     return functools.reduce(np.maximum, (model.log_likelihood(lab) for model in models.values()))
 
 
@@ -510,31 +539,50 @@ def padding(rgb: np.ndarray, inside: np.ndarray) -> np.ndarray:
 def box_blur(values: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
     """(rows, cols) the mean over each pixel's 3 x 3 neighbourhood, edges repeated; with `weights` (rows, cols) bool,
     over the neighbours it holds (a pixel with none keeps 0), so that what lies outside the photo counts for nothing."""
-    rows, cols = values.shape
 
-    def total(array):
+    def total(array):  # the 3 x 3 sum as a 3-sum down the rows, then across the columns
         padded = np.pad(array, 1, mode="edge")
-        return sum(padded[dy:dy + rows, dx:dx + cols] for dy in range(3) for dx in range(3))
+        across = padded[:-2] + padded[1:-1] + padded[2:]
+        return across[:, :-2] + across[:, 1:-1] + across[:, 2:]
 
     if weights is None:
-        return total(values) / 9.0
-    count = total(weights.astype(np.float64))
-    return total(np.where(weights, values, 0.0)) / np.maximum(count, 1.0)
+        return total(values) / values.dtype.type(9)
+    count = total(weights.astype(values.dtype))
+    return total(np.where(weights, values, values.dtype.type(0))) / np.maximum(count, values.dtype.type(1))
 
 
 def grow(seed: np.ndarray, allowed: np.ndarray) -> np.ndarray:
-    """(rows, cols) bool: the pixels of `allowed` connected to `seed` (4-neighbours), by repeated dilation."""
+    """(rows, cols) bool: the pixels of `allowed` connected to `seed` (4-neighbours). Each run of `allowed` along a
+    row that holds a pixel of the region joins it whole, then each such run along a column, in turn until nothing
+    changes: a few passes where dilating a pixel at a time takes one per pixel of the region's longest path."""
     region = seed & allowed
-    while True:
-        grown = region.copy()
-        grown[1:] |= region[:-1]
-        grown[:-1] |= region[1:]
-        grown[:, 1:] |= region[:, :-1]
-        grown[:, :-1] |= region[:, 1:]
-        grown &= allowed
-        if (grown == region).all():
-            return region
-        region = grown
+    if not region.any():
+        return region
+    along = [run_labels(allowed), np.ascontiguousarray(run_labels(allowed.T).T)]
+    held = np.zeros(max(int(labels.max()) for labels in along) + 1, bool)
+    unchanged = 0
+    while unchanged < 2:  # a pass along rows and one along columns, both adding nothing
+        for labels in along:
+            held[:] = False
+            held[labels[region]] = True
+            held[0] = False
+            grown = held[labels]
+            unchanged = unchanged + 1 if np.array_equal(grown, region) else 0
+            region = grown
+            if unchanged >= 2:
+                break
+    return region
+
+
+def run_labels(allowed: np.ndarray) -> np.ndarray:
+    """(rows, cols) bool -> (rows, cols) intp: each run of True along a row numbered from 1, 0 elsewhere."""
+    rows, cols = allowed.shape
+    padded = np.zeros((rows, cols + 1), bool)  # a False column between rows, so that no run crosses into the next
+    padded[:, :cols] = allowed
+    flat = padded.ravel()
+    starts = flat.copy()
+    starts[1:] &= ~flat[:-1]
+    return (np.cumsum(starts) * flat).reshape(rows, cols + 1)[:, :cols]
 
 
 def cached_hair_locator(segmenter_path: str | Path) -> HairLocator:

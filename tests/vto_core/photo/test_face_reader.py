@@ -106,6 +106,35 @@ def test_sampling_reproduces_and_pads_with_black():
                        [[2.5 / 16, 4.5 / 16], [10.5 / 16, 12.5 / 16]])
 
 
+def test_an_axis_aligned_grid_is_sampled_as_every_point_is():
+    image = np.random.default_rng(2).random((9, 11, 3), dtype=np.float32)
+    xs, ys = np.meshgrid(np.linspace(-2.0, 13.0, 17), np.linspace(-1.5, 10.7, 8))  # beyond the edges too
+    by_axes = fr.sample_bilinear(image, xs, ys)  # a row, then a column, at a time
+    by_points = fr.sample_bilinear(image, xs.ravel(), ys.ravel()).reshape(3, 8, 17)
+    assert by_axes.shape == (3, 8, 17) and by_axes.flags.c_contiguous
+    assert np.abs(by_axes - by_points).max() < 1e-6 and by_axes[:, :, 0].max() == 0
+
+
+def test_a_warp_beyond_the_image_is_black_or_repeats_its_edges():
+    image = np.random.default_rng(4).random((6, 8, 3), dtype=np.float32)
+    matrix = np.array([[1.0, 0.0, -4.0], [0.0, 1.0, 0.0]])  # 16 x 16 output: x -4..12, y 0..16 of an 8 x 6 image
+    black, repeated = fr.warp(image, matrix, 16), fr.warp(image, matrix, 16, repeat_edges=True)
+    assert np.allclose(black[:, :6, 4:12], image.transpose(2, 0, 1)) and black[:, :, :3].max() == 0
+    assert np.allclose(repeated[:, :6, 4:12], image.transpose(2, 0, 1))
+    assert np.allclose(repeated[:, 2, :4], image[2, 0][:, None]) and np.allclose(repeated[:, 10:, 13], image[5, 7][:, None])
+
+
+def test_reducing_takes_the_same_taps_on_clean_and_unclean_photos():
+    image = np.random.default_rng(3).random((40, 50, 3), dtype=np.float32)
+    blocks = image[:35, :49].reshape(5, 7, 7, 7, 3)[:, [0, 2, 4, 6]][:, :, :, [0, 2, 4, 6]]  # factor 7: 4 taps a side
+    assert np.allclose(fr.reduce(image, 7), blocks.mean(axis=(1, 3)), atol=1e-6)
+    unclean = image.copy()
+    unclean[1, 1], unclean[2, 2] = np.nan, 9.0  # an untapped NaN, a tapped HDR value read as 1
+    expected = blocks.mean(axis=(1, 3))
+    expected[0, 0] += (1.0 - image[2, 2]) / 16
+    assert np.allclose(fr.reduce(unclean, 7), expected, atol=1e-6)
+
+
 
 
 def turned(image, quarter_turns):

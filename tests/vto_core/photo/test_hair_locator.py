@@ -71,6 +71,48 @@ def test_a_tight_crop_is_found_beside_the_face(reader, locator, astronaut, astro
     assert not hair[40:95, 65:125].any()  # her face below the eyes
 
 
+def tight_crop_of(reader, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """A public portrait of benchmarks/photos cut as a beauty photo (bench_hair_found.tight_crop: eyebrows to chin,
+    1.6 face widths), and its hand-drawn hair mask cut alike."""
+    import json
+
+    from benchmarks.bench_hair_found import tight_crop
+    from benchmarks.bench_real_photos import PHOTOS, load_photo
+    from benchmarks.hand_masks import load_records, rasterise
+
+    record = next(r for r in json.loads(PHOTOS.read_text()) if r["file"] == name)
+    photo = load_photo(record, PHOTOS.parent)
+    x0, y0, x1, y1 = tight_crop(reader.read(photo), *photo.shape[:2])
+    drawn = rasterise(load_records()[name], *photo.shape[:2])
+    return np.ascontiguousarray(photo[y0:y1, x0:x1]), drawn[y0:y1, x0:x1]
+
+
+def test_a_tight_crop_is_shown_to_the_person_model_zoomed_out_as_well(reader, locator, monkeypatch):
+    # Susan Helms' dark curls fill both sides of her crop; shown the crop alone, the person model takes those on the
+    # left for the dark backdrop.
+    crop, drawn = tight_crop_of(reader, "nasa_susan_helms.jpg")
+    face = reader.read(crop)
+    assert hl.HeadFrame(face.landmarks, *crop.shape[:2]).share_in_photo() < hl.CROP_SHARE
+    hair = locator.locate(crop, face).mask > 0.5
+    width = crop.shape[1]
+    assert iou(hair, drawn) >= 0.5 and hair[:, :width // 5].mean() > 0.3 and hair[:, -width // 5:].mean() > 0.3
+    monkeypatch.setattr(hl, "CROP_SHARE", 0.0)  # the crop shown once
+    assert iou(locator.locate(crop, face).mask > 0.5, drawn) < 0.4
+
+
+def test_a_fringe_is_judged_on_the_forehead_in_frame(reader, locator):
+    # Cady Coleman's crop cuts at her eyebrows: a strip of forehead shows, her fringe's ends across it.
+    crop, drawn = tight_crop_of(reader, "nasa_catherine_coleman.jpg")
+    face = reader.read(crop)
+    frame = hl.HeadFrame(face.landmarks, *crop.shape[:2])
+    oval = frame.polygon(face.landmarks[hl.FACE_OVAL])
+    fringe = frame.seeds(oval, np.ones_like(oval), np.ones_like(oval))[1]
+    assert fringe.name == "fringe" and fringe.area == (frame.above_brows() & oval).sum() < 0.6 * frame.fringe_area()
+    hair = locator.locate(crop, face).mask > 0.5
+    top = slice(0, crop.shape[0] // 8)
+    assert (hair[top] & drawn[top]).sum() > 0.5 * drawn[top].sum()  # the fringe and the hair above the temples
+
+
 @pytest.mark.parametrize("case", ["bald", "hat", "out of frame", "out of frame on every side", "bald crop",
                                   "hat crop"])
 def test_a_head_without_hair_is_refused_in_one_line(reader, locator, astronaut, astronaut_hair, case):
@@ -172,8 +214,12 @@ def test_helpers():
     allowed = np.ones((5, 5), bool)
     allowed[2, :] = False
     assert hl.grow(seed, allowed).sum() == 10  # the rows above the wall only
-    assert np.allclose(hl.linear_resize(np.array([[0.0, 1.0, 2.0]]), 2, 6), [[0, 0.25, 0.75, 1.25, 1.75, 2]] * 2)
-    assert np.allclose(hl.linear_resize(np.array([[0.0], [4.0]]), 4, 1)[:, 0], [0, 1, 3, 4])
+    centres = np.arange(6) * 0.5 + 0.25  # 6 pixels over the 3 of a row, edges repeated
+    assert np.allclose(hl.linear_resize(np.array([[0.0, 1.0, 2.0]]), np.array([0.5, 0.5]), centres),
+                       [[0, 0.25, 0.75, 1.25, 1.75, 2]] * 2)
+    assert np.allclose(hl.linear_resize(np.array([[0.0], [4.0]]), np.array([0.25, 0.75, 1.25, 1.75]),
+                                        np.array([0.5]))[:, 0], [0, 1, 3, 4])
+    assert hl.on_grid(np.array([-0.5, 0.5, 1.5, 2.5, 3.5]), 3) == (1, 4)
     model = hl.Gaussian.fit(np.random.default_rng(0).normal((50, 5, 10), 3, (200, 3)))
     assert model.log_likelihood(np.array([50.0, 5, 10])) > model.log_likelihood(np.array([80.0, 5, 10]))
     assert hl.Gaussian.fit(np.zeros((3, 3))) is None
@@ -210,10 +256,17 @@ def test_the_work_grid_turns_with_the_head(reader, astronaut, degrees):
 
 def test_an_upright_grid_is_drawn_back_by_rows_and_columns_as_a_turned_one_is_pixel_by_pixel(reader, astronaut):
     frame = hl.HeadFrame(reader.read(astronaut).landmarks, 512, 512)
-    score = np.random.default_rng(0).random((frame.rows, frame.cols))
+    # A smooth score that crosses 0.5 all over the region: its edges everywhere.
+    score = (0.5 + 0.5 * np.sin(frame.along_right * 7) * np.cos(frame.along_up * 5)).astype(np.float32)
     by_axes = frame.to_image(score)
-    frame.turn = 1e-12  # the same grid, drawn back through the general path
-    assert by_axes.sum() > 1000 and np.array_equal(by_axes, frame.to_image(score))
+    rows, cols = np.nonzero(by_axes)
+    work_rows, work_cols = ((rows + 0.5 - frame.low[1]) * frame.scale).astype(int), \
+        ((cols + 0.5 - frame.low[0]) * frame.scale).astype(int)
+    assert (score[work_rows, work_cols] > 0.2).all()  # each pixel drawn lies on or beside a cell that scores
+    frame.turn = 1e-12  # the same grid, drawn back through the tilted head's path (its nearest of a 4x finer grid)
+    by_pixels = frame.to_image(score)
+    assert by_axes.sum() > 10000 and abs(by_axes.sum() / by_pixels.sum() - 1) < 0.005
+    assert (by_axes != by_pixels).sum() < 0.03 * by_axes.sum()  # at the edges, by a fraction of a work pixel
 
 
 def test_a_canvas_black_border_is_padding_and_black_in_the_scene_is_not():
