@@ -54,9 +54,10 @@ NECK_HALF_WIDTH = 0.4  # face widths: below the chin, hair is looked for only th
 PERSON, BACKGROUND = 0.5, 0.1  # segmenter probabilities: the person at and above; the background below
 HAIR_CANDIDATE = 0.25  # hair may reach where the person probability is this low (fine strands against the backdrop)
 # A tight crop (less than CROP_SHARE of the head's region in the photo) fills the person model's input with a face,
-# and the model takes the hair at the crop's edges for the backdrop. The crop is shown to it once more, zoomed out
-# CROP_ZOOM times with its edges repeated beyond the photo, where it sees a head with hair; a pixel is the person's
-# where either view says so.
+# and the model takes the hair at the crop's edges for the backdrop. The crop is shown to it again, zoomed out
+# CROP_ZOOM times with its edges repeated beyond the photo, where it sees a head with hair. Hair grows where either
+# view sees the person, but starts only where the crop alone does: the zoomed-out view also takes a backdrop at the
+# crop's edge for a body (a flag, a wall), and seeded there, would read it as hair.
 CROP_SHARE, CROP_ZOOM = 0.3, 1.3  # the 18 portraits: 0.38-1.1 of the region in frame; their tight crops 0.12-0.18
 MIN_SEED_SHARE = 0.25  # of a seed's area that must be the person, in frame (and unlike the skin, over the forehead)
 MIN_HAIR_SKIN_DISTANCE = 10.0  # CIELAB distance of the seed's median from the skin's: nearer is a bald head
@@ -157,15 +158,15 @@ class HairLocator:
         frame.inside &= ~padding(rgb, frame.inside)
         rgb = rgb if light is None else neutral_photo(rgb, light)
         square = frame.segmenter_matrix()
-        person = frame.sample_person(self.person(image, square), square)
+        person = seen = frame.sample_person(self.person(image, square), square)
         if frame.share_in_photo() < CROP_SHARE:
             wider = frame.segmenter_matrix(CROP_ZOOM)
-            person = np.maximum(person, frame.sample_person(self.person(image, wider, repeat_edges=True), wider))
+            person = np.maximum(seen, frame.sample_person(self.person(image, wider, repeat_edges=True), wider))
         lab = srgb_to_lab(rgb)
         oval = frame.polygon(face.landmarks[FACE_OVAL])
         in_photo = np.where(frame.inside, person, np.nan)  # beyond the photo: neither the person nor the background
         models = colour_models(lab, oval & ~frame.above_brows(), in_photo, frame.clothes())
-        seeds = frame.seeds(oval, person >= PERSON, models["skin"].distance(lab) > SKIN_LIKE if "skin" in models
+        seeds = frame.seeds(oval, seen >= PERSON, models["skin"].distance(lab) > SKIN_LIKE if "skin" in models
                             else np.ones_like(oval))
         others = others_likelihood(lab, models)
         hair, seed, fringe = hair_seeds(lab, seeds, models, others, frame.inside)

@@ -100,6 +100,14 @@ def test_a_tight_crop_is_shown_to_the_person_model_zoomed_out_as_well(reader, lo
     assert iou(locator.locate(crop, face).mask > 0.5, drawn) < 0.4
 
 
+def test_hair_starts_only_where_the_crop_alone_shows_the_person(reader, locator):
+    # The ISS crew photo cut around one face: a beige wall at the crop's left edge, which the zoomed-out view takes
+    # for a body. Seeded there, the wall would be read as hair; the short hair at his temples is too little to read.
+    crop, _ = tight_crop_of(reader, "nasa_iss_expedition1_crew.jpg")
+    with pytest.raises(VtoError, match="^no hair found"):
+        locator.locate(crop, reader.read(crop))
+
+
 def test_a_fringe_is_judged_on_the_forehead_in_frame(reader, locator):
     # Cady Coleman's crop cuts at her eyebrows: a strip of forehead shows, her fringe's ends across it.
     crop, drawn = tight_crop_of(reader, "nasa_catherine_coleman.jpg")
