@@ -333,13 +333,11 @@ class HeadFrame:
         """Where hair may start, each among the person's pixels: the band above the forehead and the strips beside the
         face, left and right, each less the face oval (`seed`, `beside`); the oval above the eyebrows where it is
         `unlike_skin` (rows, cols) bool (a fringe)."""
-        forehead = self.above_brows() & oval
+        fringe = self.above_brows() & oval & person & unlike_skin
         top = Seed("top", self.seed() & person & ~oval, self.seed_area())
         sides = [Seed(name, where & person & ~oval, self.beside_area())
                  for name, where in zip(("left", "right"), self.beside())]
-        # A fringe is judged on the forehead in frame: a crop at the eyebrows shows a fringe's lower edge alone.
-        fringe = Seed("fringe", forehead & person & unlike_skin, min(self.fringe_area(), float(forehead.sum())))
-        return [top, fringe] + sides
+        return [top, Seed("fringe", fringe, self.fringe_area())] + sides
 
     def above_brows(self) -> np.ndarray:
         """(rows, cols) bool: above the eyebrows' top."""

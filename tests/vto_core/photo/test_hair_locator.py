@@ -108,19 +108,6 @@ def test_hair_starts_only_where_the_crop_alone_shows_the_person(reader, locator)
         locator.locate(crop, reader.read(crop))
 
 
-def test_a_fringe_is_judged_on_the_forehead_in_frame(reader, locator):
-    # Cady Coleman's crop cuts at her eyebrows: a strip of forehead shows, her fringe's ends across it.
-    crop, drawn = tight_crop_of(reader, "nasa_catherine_coleman.jpg")
-    face = reader.read(crop)
-    frame = hl.HeadFrame(face.landmarks, *crop.shape[:2])
-    oval = frame.polygon(face.landmarks[hl.FACE_OVAL])
-    fringe = frame.seeds(oval, np.ones_like(oval), np.ones_like(oval))[1]
-    assert fringe.name == "fringe" and fringe.area == (frame.above_brows() & oval).sum() < 0.6 * frame.fringe_area()
-    hair = locator.locate(crop, face).mask > 0.5
-    top = slice(0, crop.shape[0] // 8)
-    assert (hair[top] & drawn[top]).sum() > 0.5 * drawn[top].sum()  # the fringe and the hair above the temples
-
-
 @pytest.mark.parametrize("case", ["bald", "hat", "out of frame", "out of frame on every side", "bald crop",
                                   "hat crop"])
 def test_a_head_without_hair_is_refused_in_one_line(reader, locator, astronaut, astronaut_hair, case):
