@@ -15,6 +15,7 @@ sampled back onto the photo's pixels of that region, so the cost does not grow w
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -558,19 +559,16 @@ def grow(seed: np.ndarray, allowed: np.ndarray) -> np.ndarray:
     if not region.any():
         return region
     along = [run_labels(allowed), np.ascontiguousarray(run_labels(allowed.T).T)]
-    held = np.zeros(max(int(labels.max()) for labels in along) + 1, bool)
+    held = np.zeros(max(int(labels.max()) for labels in along) + 1, bool)  # per run: whether it joins (0: none)
     unchanged = 0
-    while unchanged < 2:  # a pass along rows and one along columns, both adding nothing
-        for labels in along:
-            held[:] = False
-            held[labels[region]] = True
-            held[0] = False
-            grown = held[labels]
-            unchanged = unchanged + 1 if np.array_equal(grown, region) else 0
-            region = grown
-            if unchanged >= 2:
-                break
-    return region
+    for labels in itertools.cycle(along):
+        held[:] = False
+        held[labels[region]] = True
+        grown = held[labels]
+        unchanged = unchanged + 1 if np.array_equal(grown, region) else 0
+        if unchanged == 2:  # a pass along the rows and one along the columns, both adding nothing
+            return region
+        region = grown
 
 
 def run_labels(allowed: np.ndarray) -> np.ndarray:

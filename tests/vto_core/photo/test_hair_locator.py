@@ -221,6 +221,25 @@ def test_helpers():
 
 
 
+def test_growing_finds_what_a_flood_fill_finds():
+    from collections import deque
+
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        allowed = rng.random((23, 31)) < 0.6
+        seed = rng.random((23, 31)) < 0.01
+        expected, queue = np.zeros_like(allowed), deque(zip(*np.nonzero(seed & allowed)))
+        for row, col in queue:
+            expected[row, col] = True
+        while queue:
+            row, col = queue.popleft()
+            for r, c in ((row - 1, col), (row + 1, col), (row, col - 1), (row, col + 1)):
+                if 0 <= r < 23 and 0 <= c < 31 and allowed[r, c] and not expected[r, c]:
+                    expected[r, c] = True
+                    queue.append((r, c))
+        assert np.array_equal(hl.grow(seed, allowed), expected)
+
+
 @pytest.mark.parametrize("degrees", [30, 180])
 def test_the_work_grid_turns_with_the_head(reader, astronaut, degrees):
     # A tilted head's grid lies along the face's axes: the same work pixel is the same place on the head at any roll,
