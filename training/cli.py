@@ -66,6 +66,10 @@ def cmd_export(argv: list[str]) -> int:
     parser.add_argument("--single-view", action="store_true",
                         help="read each image once, not also its mirror (half the time; by default a run trained on "
                              "mirrored views averages both readings)")
+    parser.add_argument("--smooth-input", action="store_true",
+                        help="read the image through a 3x3 box filter, steady against a framing a pixel off (the "
+                             "shipped lipstick encoder)")
     args = parser.parse_args(argv)
-    print(json.dumps(export_encoder(args.encoder, args.out, args.opset, mirror=not args.single_view)))
+    print(json.dumps(export_encoder(args.encoder, args.out, args.opset, mirror=not args.single_view,
+                                    smooth=args.smooth_input)))
     return 0

@@ -175,6 +175,16 @@ def test_a_batch_norm_encoder_trains_and_exports_mirror_averaged_with_its_runnin
     single = export_encoder(str(run.path), str(tmp_path / "single.onnx"), mirror=False)  # vto export --single-view
     assert single["mirror_averaged"] is False
     assert np.abs(EncoderSession(tmp_path / "single.onnx").predict_unit_nchw(images) - direct).max() <= 1e-4
+    # vto export --smooth-input: the same file reading its input box-filtered over 3 x 3 pixels, edges repeated
+    smooth = export_encoder(str(run.path), str(tmp_path / "smooth.onnx"), smooth=True)
+    assert smooth["smoothed"] is True and smooth["max_abs_diff"] <= 1e-4
+    metadata = {p.key: p.value for p in onnx.load(str(tmp_path / "smooth.onnx")).metadata_props}
+    assert metadata["vto.input_filter"] == "box 3x3, edges repeated"
+    padded = np.pad(images, ((0, 0), (0, 0), (1, 1), (1, 1)), mode="edge")
+    boxed = sum(padded[:, :, dy:dy + 16, dx:dx + 16] for dy in range(3) for dx in range(3)) / np.float32(9)
+    expected = EncoderSession(tmp_path / "bn.onnx").predict_unit_nchw(boxed.astype(np.float32))
+    smoothed = EncoderSession(tmp_path / "smooth.onnx").predict_unit_nchw(images)
+    assert np.abs(smoothed - expected).max() <= 1e-4 and np.abs(smoothed - got).max() > 1e-3
 
 
 def test_runs_of_one_spec_export_averaged_into_one_file_and_others_are_refused(lipstick_dataset, colour_dataset,
