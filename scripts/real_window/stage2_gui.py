@@ -205,28 +205,29 @@ def click_better(record, props, inputs, name, region):
     grab(f"{name}_better", region)
 
 
-def button_when_drawn(area, shot, seconds=15.0, where=None):
+def button_when_drawn(area, shot, seconds=15.0, settled=False):
     """find_button on a fresh screenshot of `area`, again every half second while the panel has not drawn its buttons
     yet (on two busy cores the panel lays out after Match's preview, or redraws after an undo, a few seconds late). A
-    generator: returns (x, y). where: wait until Match is drawn there again; RuntimeError where it is still elsewhere
-    after `seconds`: the panel's layout changed."""
-    found, last = None, int(seconds * 2)
+    generator: returns (x, y). settled: wait until two screenshots half a second apart show Match in one place (after
+    an undo the panel redraws in steps: without the preview, then with the thumbnail that loads on a timer);
+    RuntimeError where it has not settled after `seconds`."""
+    found, previous, last = None, None, int(seconds * 2)
     for attempt in range(last + 1):
         area.tag_redraw()
         if attempt:
             yield 0.5
         grab(shot, region_of(area))
         try:
-            found = find_button(region_of(area), shot)
+            previous, found = found, find_button(region_of(area), shot)
         except RuntimeError:
-            if attempt == last and where is None:
+            if attempt == last:
                 raise
             continue
-        if where is None or found == where:
+        if not settled or found == previous:
             if attempt:
                 log(f"(the buttons were drawn after {attempt / 2:.1f} s more)")
             return found
-    raise RuntimeError(f"Match moved after the undo, to {found} from {where}: the panel's layout changed")
+    raise RuntimeError(f"Match did not settle after the undo: last at {previous}, then {found}")
 
 
 def retrying(action):
@@ -369,7 +370,7 @@ def script():
     yield from undo()
     undone = lips_inputs()
     RESULT["reference_after_undo"] = lips_props().image_path
-    yield from button_when_drawn(props_area, "lips_undone", where=(x, y))
+    x, y = yield from button_when_drawn(props_area, "lips_undone", settled=True)
     xdo("mousemove", x, y)
     yield 0.5
     second, second_ms = yield from click_match(lips_props, lips_inputs, "lips click 2")
