@@ -226,8 +226,9 @@ class MirrorAveraged(nn.Module):
 
 class Smoothed(nn.Module):
     """An encoder read through a 3 x 3 box filter (edges repeated): its first convolution strides by 2, so a framing
-    one pixel off read another estimate (a lips crop turned with the head moved Match's colour up to 2.9 CIEDE2000);
-    read smoothed, it moves less than half that. img (B, C, H, W) -> the wrapped encoder's output."""
+    one pixel off reads another estimate (a lips crop turned with the head moved Match's colour up to 2.85
+    CIEDE2000; read smoothed, up to 1.78, but real lips read less vividly: lipstick_encoder.md).
+    img (B, C, H, W) -> the wrapped encoder's output."""
 
     def __init__(self, encoder):
         super().__init__()
