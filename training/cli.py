@@ -67,8 +67,8 @@ def cmd_export(argv: list[str]) -> int:
                         help="read each image once, not also its mirror (half the time; by default a run trained on "
                              "mirrored views averages both readings)")
     parser.add_argument("--smooth-input", action="store_true",
-                        help="read the image through a 3x3 box filter, steady against a framing a pixel off "
-                             "(measured on the lips encoder and not shipped: lipstick_encoder.md)")
+                        help="read the image through a 3x3 box filter, steadier against a framing a pixel off, though "
+                             "the run was trained without one (training instead: --set input_filter=3)")
     args = parser.parse_args(argv)
     print(json.dumps(export_encoder(args.encoder, args.out, args.opset, mirror=not args.single_view,
                                     smooth=args.smooth_input)))

@@ -68,6 +68,7 @@ class EncoderConfig(CommonConfig):
     pool_size: int = 4  # spatial size before the linear head (1 = global average pooling)
     blocks: int = 0  # extra 3x3 convolutions per level
     batch_norm: bool = False
+    input_filter: int = 0  # read the image box-filtered over this many pixels square (odd, >= 3; 0: as it is)
     lambda_rendering: float = 20.0
     loss: str = "both"  # ablation: graphics | rendering | both
     graphics_error: str = "squared"  # squared (the paper) | absolute: the graphics loss's per-parameter error

@@ -16,7 +16,7 @@ from vto_core.errors import VtoError
 from vto_core.inference import INPUT_NAME, METADATA_PREFIX, OUTPUT_NAME, EncoderSession
 from vto_core.specs import RendererSpec
 
-from .networks import Averaged, MirrorAveraged, Smoothed, build
+from .networks import Averaged, MirrorAveraged, build
 from .run import RunFolder
 
 PARITY_TOLERANCE = 1e-4
@@ -27,10 +27,11 @@ def trained_on_mirrors(checkpoint: dict) -> bool:
     return bool(checkpoint.get("config", {}).get("augment", False))
 
 
-def encoder_metadata(checkpoints: list[dict], mirror_averaged: bool, smoothed: bool = False) -> dict[str, str]:
+def encoder_metadata(checkpoints: list[dict], mirror_averaged: bool) -> dict[str, str]:
     """What the ONNX file says about itself: spec, renderer, input size and format, mirror averaging, the input's
-    smoothing, versions."""
+    filter, versions."""
     height, width = checkpoints[0]["image_size"]
+    filters = sorted({c["model_args"].get("input_filter", 0) for c in checkpoints})
     spec = checkpoints[0]["spec"]
     return {
         f"{METADATA_PREFIX}kind": "encoder",
@@ -40,7 +41,7 @@ def encoder_metadata(checkpoints: list[dict], mirror_averaged: bool, smoothed: b
         f"{METADATA_PREFIX}input_normalisation": "NCHW float32, display sRGB values in [0, 1]",
         f"{METADATA_PREFIX}output": "normalised parameters in [0, 1], in the spec's vector order",
         f"{METADATA_PREFIX}mirror_averaged": str(mirror_averaged).lower(),
-        f"{METADATA_PREFIX}input_filter": "box 3x3, edges repeated" if smoothed else "none",
+        f"{METADATA_PREFIX}input_filter": ", ".join(f"box {k}x{k}, edges repeated" if k else "none" for k in filters),
         f"{METADATA_PREFIX}averaged_runs": str(len(checkpoints)),
         f"{METADATA_PREFIX}version": vto_core.__version__,
         f"{METADATA_PREFIX}trained_steps": ",".join(str(c["step"]) for c in checkpoints),
@@ -115,12 +116,16 @@ def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, m
     """RUN/checkpoint.pt (or several runs, averaged: networks.Averaged) -> out_path (.onnx); onnx.checker and
     onnxruntime-vs-torch parity must pass. With `mirror`, runs all trained on mirrored views are exported
     mirror-averaged (networks.MirrorAveraged): twice the encoder's ~1 ms for a lower error
-    (blender_addon/models/lipstick_encoder.md). With `smooth`, the file reads its input box-filtered
-    (networks.Smoothed), steady against a framing a pixel off."""
+    (blender_addon/models/lipstick_encoder.md). With `smooth`, a run trained without an input filter reads its input
+    box-filtered over 3 x 3 pixels all the same (networks.Encoder's input_filter), steadier against a framing a pixel
+    off."""
     import onnx
 
     run_paths = [run_paths] if isinstance(run_paths, (str, os.PathLike)) else list(run_paths)
     checkpoints = load_encoder_runs(run_paths)
+    if smooth:
+        checkpoints = [{**c, "model_args": {**c["model_args"], "input_filter": c["model_args"].get("input_filter")
+                                             or 3}} for c in checkpoints]
     spec = RendererSpec.from_dict(checkpoints[0]["spec"])
     wraps = [p.wraps for p in spec.modelled_params]
     mirror_averaged = mirror and all(trained_on_mirrors(c) for c in checkpoints)
@@ -130,7 +135,6 @@ def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, m
         encoder.load_state_dict(checkpoint["model"])
         encoders.append(MirrorAveraged(encoder, wraps) if mirror_averaged else encoder)
     encoder = encoders[0] if len(encoders) == 1 else Averaged(encoders, wraps)
-    encoder = Smoothed(encoder) if smooth else encoder
     encoder.eval()
     height, width = checkpoints[0]["image_size"]
     out = Path(out_path)
@@ -144,7 +148,7 @@ def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, m
                               opset_version=opset, dynamo=True, external_data=False,
                               dynamic_shapes=({0: torch.export.Dim("batch", min=1, max=4096)},))
         model = onnx.load(str(tmp))
-        for key, value in encoder_metadata(checkpoints, mirror_averaged, smooth).items():
+        for key, value in encoder_metadata(checkpoints, mirror_averaged).items():
             entry = model.metadata_props.add()
             entry.key, entry.value = key, value
         onnx.checker.check_model(model, full_check=True)
@@ -155,7 +159,8 @@ def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, m
         if tmp.exists():
             tmp.unlink()
     return {"out": str(out), "max_abs_diff": parity, "input_size": [height, width], "mirror_averaged": mirror_averaged,
-            "smoothed": smooth, "averaged_runs": len(checkpoints), "params": checkpoints[0]["spec"]["modelled"]}
+            "input_filter": [c["model_args"].get("input_filter", 0) for c in checkpoints],
+            "averaged_runs": len(checkpoints), "params": checkpoints[0]["spec"]["modelled"]}
 
 
 def _parity(encoder: torch.nn.Module, path: str, height: int, width: int) -> float:

@@ -167,17 +167,25 @@ class Encoder(nn.Module):
     """Inverse-graphics encoder E: img (B, C, H, W) in [0,1] -> normalised parameters (B, m).
 
     Each of the n_layers levels is a stride-2 4x4 convolution followed by `blocks` 3x3 convolutions at the same size;
-    batch_norm=1 puts a BatchNorm after every convolution (folded into it on export).
+    batch_norm=1 puts a BatchNorm after every convolution (folded into it on export). input_filter=k (odd, >= 3) reads
+    the image box-filtered over k x k pixels, edges repeated: the first convolution strides by 2, so without it a
+    framing one pixel off reads another estimate (lipstick_encoder.md).
     """
 
-    def __init__(self, n_params, width=32, n_layers=4, image_channels=3, pool_size=4, blocks=0, batch_norm=0):
+    def __init__(self, n_params, width=32, n_layers=4, image_channels=3, pool_size=4, blocks=0, batch_norm=0,
+                 input_filter=0):
         super().__init__()
-        self.model_args = _model_args("Encoder", {"blocks": 0, "batch_norm": 0}, n_params=n_params, width=width,
-                                      n_layers=n_layers, image_channels=image_channels, pool_size=pool_size,
-                                      blocks=blocks, batch_norm=batch_norm)
-        n_params, width, n_layers, image_channels, pool_size, blocks, batch_norm = self.model_args.values()
+        self.model_args = _model_args("Encoder", {"blocks": 0, "batch_norm": 0, "input_filter": 0}, n_params=n_params,
+                                      width=width, n_layers=n_layers, image_channels=image_channels,
+                                      pool_size=pool_size, blocks=blocks, batch_norm=batch_norm,
+                                      input_filter=input_filter)
+        n_params, width, n_layers, image_channels, pool_size, blocks, batch_norm, input_filter = \
+            self.model_args.values()
         if batch_norm > 1:
             raise VtoError(f"Encoder: batch_norm must be 0 or 1, got {batch_norm}")
+        if input_filter and (input_filter < 3 or input_filter % 2 == 0):
+            raise VtoError(f"Encoder: input_filter must be 0 or an odd size >= 3, got {input_filter}")
+        self.input_filter = input_filter
         self.n_layers = n_layers
         self.image_channels = image_channels
 
@@ -206,6 +214,10 @@ class Encoder(nn.Module):
         """img: (B, C, H, W) in [0,1] -> (B, n_params) linear outputs."""
         _check_images("Encoder", img, self.image_channels)
         _check_halvings("Encoder", img, self.n_layers)
+        if self.input_filter:
+            half = self.input_filter // 2
+            img = nn.functional.avg_pool2d(nn.functional.pad(img, (half,) * 4, mode="replicate"), self.input_filter,
+                                           stride=1)
         return self.body(img)
 
 
@@ -222,22 +234,6 @@ class MirrorAveraged(nn.Module):
         """img: (B, C, H, W) in [0,1] -> (B, n_params), the mean of the two readings."""
         direct, mirrored = self.encoder(img), self.encoder(torch.flip(img, dims=[3]))
         return direct + 0.5 * parameter_difference(direct, mirrored, self.wraps)  # half-way, round the circle too
-
-
-class Smoothed(nn.Module):
-    """An encoder read through a 3 x 3 box filter (edges repeated): its first convolution strides by 2, so a framing
-    one pixel off reads another estimate (a lips crop turned with the head moved Match's colour up to 2.85
-    CIEDE2000; read smoothed, up to 1.78, but real lips read less vividly: lipstick_encoder.md).
-    img (B, C, H, W) -> the wrapped encoder's output."""
-
-    def __init__(self, encoder):
-        super().__init__()
-        self.encoder = encoder
-
-    def forward(self, img):
-        """img: (B, C, H, W) -> the encoder's reading of img box-filtered over 3 x 3 pixels."""
-        padded = nn.functional.pad(img, (1, 1, 1, 1), mode="replicate")
-        return self.encoder(nn.functional.avg_pool2d(padded, 3, stride=1))
 
 
 class Averaged(nn.Module):

@@ -45,7 +45,7 @@ def load_frozen_imitator(run_path: str, spec: RendererSpec, device: str,
 def new_encoder(spec: RendererSpec, config: EncoderConfig) -> Encoder:
     """The untrained encoder `config` describes for `spec`'s parameters."""
     return Encoder(spec.size, config.width, config.n_layers, pool_size=config.pool_size, blocks=config.blocks,
-                   batch_norm=int(config.batch_norm))
+                   batch_norm=int(config.batch_norm), input_filter=config.input_filter)
 
 
 def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: EncoderConfig, wraps=None,

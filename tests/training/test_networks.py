@@ -152,6 +152,24 @@ def test_encoder_blocks_and_batch_norm_add_same_size_stages():
         Encoder(n_params=3, blocks=-1)
 
 
+def test_encoder_input_filter_reads_the_image_box_filtered_with_edges_repeated():
+    plain = Encoder(n_params=3, width=4, n_layers=2, pool_size=2)
+    filtered = Encoder(n_params=3, width=4, n_layers=2, pool_size=2, input_filter=3)
+    filtered.load_state_dict(plain.state_dict())  # the filter has no weights
+    assert build("encoder", filtered.model_args).input_filter == 3
+    images = _images(2, 16)
+    padded = torch.nn.functional.pad(images, (1, 1, 1, 1), mode="replicate")
+    boxed = sum(padded[:, :, dy:dy + 16, dx:dx + 16] for dy in range(3) for dx in range(3)) / 9.0
+    with torch.no_grad():
+        assert torch.allclose(filtered(images), plain(boxed), atol=1e-6)
+        assert not torch.allclose(filtered(images), plain(images), atol=1e-4)
+        constant = torch.full((1, 3, 16, 16), 0.7)  # a flat image is its own box filter, at the edges too
+        assert torch.allclose(filtered(constant), plain(constant), atol=1e-6)
+    for bad in (1, 2, 4):
+        with pytest.raises(VtoError, match="input_filter must be 0 or an odd size"):
+            Encoder(n_params=3, input_filter=bad)
+
+
 def test_encoder_refuses_wrong_channels_and_tiny_images():
     encoder = Encoder(n_params=3, width=4, n_layers=4)
     with pytest.raises(VtoError, match=r"\(B, 3, H, W\)"):
@@ -209,7 +227,7 @@ def test_model_args_hold_the_defaults_too():
     assert Imitator(n_params=4).model_args == dict(n_params=4, width=64, n_down=2, n_res=6, image_channels=3)
     assert Critic().model_args == dict(width=64, n_layers=4, image_channels=3)
     assert Encoder(n_params=4).model_args == dict(
-        n_params=4, width=32, n_layers=4, image_channels=3, pool_size=4, blocks=0, batch_norm=0
+        n_params=4, width=32, n_layers=4, image_channels=3, pool_size=4, blocks=0, batch_norm=0, input_filter=0
     )
 
 
