@@ -2,7 +2,7 @@
 read from real photos, and the photo's lips alone changed (issue "An encoder that has seen real faces").
 
     python -m benchmarks.bench_photo_sources [--model NEW.onnx] [--compare OLD.onnx]
-        [--parts roundtrip,slopes,sweep,picture] [--qualities fast] [--faces 13] [--products 16]
+        [--parts roundtrip,slopes,sweep,picture,exposure] [--qualities fast] [--faces 13] [--products 16]
 
 (a) roundtrip: each of PRODUCTS tried on each held-out face of data/faces (`vto tryon`'s renderer, the whole photo),
     read back by `vto match` (its own path, blender_addon.matching.match.match); truth and estimate rendered on
@@ -16,6 +16,10 @@ read from real photos, and the photo's lips alone changed (issue "An encoder tha
     same sweep on the default scene's own renders (SWEEP_PRESETS x sources 0-1, read by the encoder as Match reads a
     render). Each model is measured on both.
 (d) picture: the held-out faces as they are, each model's Fast estimate tried on them and on the default lips.
+(e) exposure: why (b)'s lightness slope and the re-lit portraits pull apart. Every portrait of benchmarks/photos
+    re-lit as `bench_light --part photos` re-lights it (two white balances, +-0.7 EV); the skin's L* against the lips'
+    across faces and under an exposure, and an estimate whose L* is pulled a share k of the way to the photo lips'
+    L*: (b)'s slope against the re-lit portraits' CIEDE2000 from the photo as it is (new model, Fast, sources 0-7).
 --compare: today's encoder (default: the one shipped at COMPARE_COMMIT, taken from git) gives the comparison rows.
 Writes benchmarks/results/photo_sources.md (a section per part) and photo_sources.png.
 """
@@ -303,6 +307,70 @@ def sweep(models: dict[str, Path], work: Path, renders: Renders) -> str:
         table(["portrait", *labels], [[s, *[by.get(k, "-") for k in labels]] for s, by in by_photo.items()])])
 
 
+PULLS = (0.0, 0.1, 0.2, 0.4, 0.6, 1.0)  # part (e): shares of the way from the estimate's L* to the photo lips'
+
+
+def exposure(model: Path, work: Path) -> str:
+    """Part (e): skin against lips across faces and under an exposure; the pulled estimates' slope and re-lit
+    spread."""
+    from benchmarks.bench_light import PHOTO_SHIFTS
+    from benchmarks.bench_real_photos import load_photo
+    from blender_addon.matching.photo_fit import apparent_colour
+    from blender_addon.matching.reference import read_reference
+    from vto_core.appearance import mean_colour
+    from vto_core.colour import ciede2000
+    from vto_core.imageio import write_image
+    from vto_core.photo.photo_light import kelvin_gains, relit
+
+    lights = {"as it is": (6504.0, 0.0), **PHOTO_SHIFTS}
+    portraits = []  # (NASA?, light -> (photo lips Lab, skin L*, estimate's apparent Lab))
+    for record in photo_records(with_packages=True):
+        photo, stem, read = load_photo(record, PHOTOS.parent), photo_file(record, work).stem, {}
+        for name, (kelvin, ev) in lights.items():
+            path = work / f"relit-{stem}-{name.replace(' ', '_').replace(',', '')}.png"
+            if not path.exists():
+                write_image(path, photo if name == "as it is" else relit(photo, kelvin_gains(kelvin, ev)))
+            image, mask = read_reference("lipstick", {"image_path": str(path)}).region
+            found = apparent_colour("lipstick", estimate(model, path, "fast")[0], sources=SOURCES)["mean"]
+            read[name] = (lab(mean_colour(image, mask)), lab(mean_colour(image, (mask < 0.5).astype(np.float32)))[0],
+                          lab(found))
+        portraits.append((not record["file"].startswith("package:"), read))
+    nasa = [read["as it is"] for is_nasa, read in portraits if is_nasa]
+    lips_l, skin_l = np.array([r[0][0] for r in nasa]), np.array([r[1] for r in nasa])
+    lips_moves = [read[name][0][0] - read["as it is"][0][0] for _, read in portraits for name in lights if "EV" in name]
+    skin_moves = [read[name][1] - read["as it is"][1] for _, read in portraits for name in lights if "EV" in name]
+    exposed = np.divide(skin_moves, lips_moves)
+
+    def pulled(reading, k):
+        found = reading[2].copy()
+        found[0] += k * (reading[0][0] - found[0])
+        return found
+
+    rows = []
+    for k in PULLS:
+        slope = np.polyfit(lips_l, [pulled(r, k)[0] for r in nasa], 1)[0]
+        spread = {name: [float(ciede2000(pulled(read["as it is"], k), pulled(read[name], k))) for _, read in portraits]
+                  for name in lights if name != "as it is"}
+        casts = [e for name, errors in spread.items() if "EV" not in name for e in errors]
+        exposures = [e for name, errors in spread.items() if "EV" in name for e in errors]
+        rows.append([f"{k:.1f}", f"{slope:.2f}", f"{np.median(casts + exposures):.2f}", f"{np.median(casts):.2f}",
+                     f"{np.median(exposures):.2f}"])
+    return "\n".join([
+        f"{len(portraits)} portraits of benchmarks/photos re-lit ({', '.join(PHOTO_SHIFTS)}); the new model's Fast, "
+        f"apparent colour on default sources 0-7; the lips and the skin beside them (the rest of the lips frame) as "
+        f"Match reads them, the light taken out.", "",
+        f"- Across the {len(nasa)} NASA portraits the skin's L* moves {np.polyfit(lips_l, skin_l, 1)[0]:.2f} per unit "
+        f"of the lips' (correlation {np.corrcoef(lips_l, skin_l)[0, 1]:.2f}); under +-0.7 EV it moves "
+        f"{np.median(exposed):.2f} (median; {min(exposed):.2f}-{max(exposed):.2f}). Darker lips come with darker skin "
+        f"as an exposure darkens both: what is read from the lips and the skin cannot tell a darker face from a "
+        f"darker exposure.",
+        f"- The lips' L* moves a median {np.median(np.abs(lips_moves)):.1f} under +-0.7 EV.", "",
+        "An estimate whose L* is moved a share k of the way to the photo lips' L* (k = 0: Fast as it is; 1: the "
+        "photo's lightness copied):", "",
+        table(["k", "L* slope, 16 NASA portraits (goal >= 0.6)", "re-lit median (goal <= 2)", "white balances median",
+               "+-0.7 EV median"], rows)])
+
+
 def picture(models: dict[str, Path], qualities: list[str], faces: int, out: Path) -> str:
     """Part (d): per held-out face, its photo around the lips | each model's Fast (and the new one's other
     `qualities`) tried on it | each estimate on the default lips (source 0)."""
@@ -332,7 +400,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", default=str(MODEL))
     parser.add_argument("--compare", default=None, help=f"today's encoder (default: the one of {COMPARE_COMMIT})")
-    parser.add_argument("--parts", default="roundtrip,slopes,sweep,picture")
+    parser.add_argument("--parts", default="roundtrip,slopes,sweep,picture,exposure")
     parser.add_argument("--qualities", default="fast")
     parser.add_argument("--faces", type=int, default=13)
     parser.add_argument("--products", type=int, default=len(PRODUCTS))
@@ -371,6 +439,8 @@ def main(argv: list[str] | None = None) -> None:
         write_section("photo_sources", "picture", heading + picture(models, qualities, args.faces,
                                                                      Path(args.results) / "photo_sources.png"),
                       Path(args.results))
+    if "exposure" in parts:
+        write_section("photo_sources", "exposure", heading + exposure(models["new"], work), Path(args.results))
     kept.write_text(json.dumps(ESTIMATES))
     print(f"wrote {Path(args.results) / 'photo_sources.md'}")
 
