@@ -131,23 +131,31 @@ def hair_estimates(path: Path, patch, qualities: list[str]) -> dict[str, dict]:
     return found
 
 
+def relit_files(record: dict, work: Path) -> dict[str, Path]:
+    """The portrait of `record` as it is and under each of PHOTO_SHIFTS, written to `work`: light name -> file."""
+    from vto_core.imageio import write_image
+    from vto_core.photo.photo_light import kelvin_gains, relit
+
+    photo = load_photo(record, PHOTOS.parent)
+    stem = Path(record["file"]).stem.replace(":", "_").replace("/", "_")
+    files = {}
+    for name, (kelvin, ev) in {"as it is": (6504.0, 0.0), **PHOTO_SHIFTS}.items():
+        files[name] = work / f"{stem}_{name.replace(' ', '_').replace(',', '')}.png"
+        write_image(files[name], photo if name == "as it is" else relit(photo, kelvin_gains(kelvin, ev)))
+    return files
+
+
 def run_photos(records: list[dict], qualities: list[str], work: Path, renderer: str) -> tuple[list, dict]:
     """Per portrait, its estimates of the lips (or its first hair patch) re-lit: (rows, method -> [(its CIEDE2000s,
     held out)])."""
     from blender_addon.matching.photo_fit import apparent_colour
-    from vto_core.imageio import write_image
-    from vto_core.photo.photo_light import kelvin_gains, relit
 
     rows, pooled = [], {}
     for record in records:
         if renderer == "hair" and not record.get("hair_patches"):
             continue
-        photo = load_photo(record, PHOTOS.parent)
-        stem = Path(record["file"]).stem.replace(":", "_").replace("/", "_")
         apparent = {}
-        for name, (kelvin, ev) in {"as it is": (6504.0, 0.0), **PHOTO_SHIFTS}.items():
-            path = work / f"{stem}_{name.replace(' ', '_').replace(',', '')}.png"
-            write_image(path, photo if name == "as it is" else relit(photo, kelvin_gains(kelvin, ev)))
+        for name, path in relit_files(record, work).items():
             found = (lips_estimates(path, None, qualities) if renderer == "lipstick" else
                      hair_estimates(path, tuple(record["hair_patches"][0]), qualities))
             apparent[name] = {method: apparent_colour(renderer, values)["mean"] for method, values in found.items()}

@@ -313,23 +313,16 @@ PULLS = (0.0, 0.1, 0.2, 0.4, 0.6, 1.0)  # part (e): shares of the way from the e
 def exposure(model: Path, work: Path) -> str:
     """Part (e): skin against lips across faces and under an exposure; the pulled estimates' slope and re-lit
     spread."""
-    from benchmarks.bench_light import PHOTO_SHIFTS
-    from benchmarks.bench_real_photos import load_photo
+    from benchmarks.bench_light import PHOTO_SHIFTS, relit_files
     from blender_addon.matching.photo_fit import apparent_colour
     from blender_addon.matching.reference import read_reference
     from vto_core.appearance import mean_colour
     from vto_core.colour import ciede2000
-    from vto_core.imageio import write_image
-    from vto_core.photo.photo_light import kelvin_gains, relit
 
-    lights = {"as it is": (6504.0, 0.0), **PHOTO_SHIFTS}
     portraits = []  # (NASA?, light -> (photo lips Lab, skin L*, estimate's apparent Lab))
     for record in photo_records(with_packages=True):
-        photo, stem, read = load_photo(record, PHOTOS.parent), photo_file(record, work).stem, {}
-        for name, (kelvin, ev) in lights.items():
-            path = work / f"relit-{stem}-{name.replace(' ', '_').replace(',', '')}.png"
-            if not path.exists():
-                write_image(path, photo if name == "as it is" else relit(photo, kelvin_gains(kelvin, ev)))
+        read = {}
+        for name, path in relit_files(record, work).items():
             image, mask = read_reference("lipstick", {"image_path": str(path)}).region
             found = apparent_colour("lipstick", estimate(model, path, "fast")[0], sources=SOURCES)["mean"]
             read[name] = (lab(mean_colour(image, mask)), lab(mean_colour(image, (mask < 0.5).astype(np.float32)))[0],
@@ -337,8 +330,9 @@ def exposure(model: Path, work: Path) -> str:
         portraits.append((not record["file"].startswith("package:"), read))
     nasa = [read["as it is"] for is_nasa, read in portraits if is_nasa]
     lips_l, skin_l = np.array([r[0][0] for r in nasa]), np.array([r[1] for r in nasa])
-    lips_moves = [read[name][0][0] - read["as it is"][0][0] for _, read in portraits for name in lights if "EV" in name]
-    skin_moves = [read[name][1] - read["as it is"][1] for _, read in portraits for name in lights if "EV" in name]
+    exposures = [name for name in PHOTO_SHIFTS if "EV" in name]
+    lips_moves = [read[name][0][0] - read["as it is"][0][0] for _, read in portraits for name in exposures]
+    skin_moves = [read[name][1] - read["as it is"][1] for _, read in portraits for name in exposures]
     exposed = np.divide(skin_moves, lips_moves)
 
     def pulled(reading, k):
@@ -350,11 +344,11 @@ def exposure(model: Path, work: Path) -> str:
     for k in PULLS:
         slope = np.polyfit(lips_l, [pulled(r, k)[0] for r in nasa], 1)[0]
         spread = {name: [float(ciede2000(pulled(read["as it is"], k), pulled(read[name], k))) for _, read in portraits]
-                  for name in lights if name != "as it is"}
-        casts = [e for name, errors in spread.items() if "EV" not in name for e in errors]
-        exposures = [e for name, errors in spread.items() if "EV" in name for e in errors]
-        rows.append([f"{k:.1f}", f"{slope:.2f}", f"{np.median(casts + exposures):.2f}", f"{np.median(casts):.2f}",
-                     f"{np.median(exposures):.2f}"])
+                  for name in PHOTO_SHIFTS}
+        by_cast = [e for name, errors in spread.items() if name not in exposures for e in errors]
+        by_exposure = [e for name in exposures for e in spread[name]]
+        rows.append([f"{k:.1f}", f"{slope:.2f}", f"{np.median(by_cast + by_exposure):.2f}",
+                     f"{np.median(by_cast):.2f}", f"{np.median(by_exposure):.2f}"])
     return "\n".join([
         f"{len(portraits)} portraits of benchmarks/photos re-lit ({', '.join(PHOTO_SHIFTS)}); the new model's Fast, "
         f"apparent colour on default sources 0-7; the lips and the skin beside them (the rest of the lips frame) as "

@@ -16,14 +16,14 @@ START=${START:-blender_addon/models/lipstick_encoder.onnx}
 mkdir -p out && cp "$START" out/lipstick_encoder_procedural.onnx
 $VTO dataset lipstick --out out/data/faces61 --n "${FACE_LOOKS:-7707}" --seed 61 --photos data/faces --no-source
 $VTO dataset lipstick --out out/data/lip64d --n "${DEFAULT_LOOKS:-3517}" --seed 53 --no-source --vary gloss_roughness
-VIEWS=(--set loss=graphics --set augment=true --set photo_views=true --set mouth_views=true --set blocks=1
+SETTINGS=(--set loss=graphics --set augment=true --set photo_views=true --set mouth_views=true --set blocks=1
        --set batch_norm=true --set lr=0.0003 --set schedule=cosine --set warmup_steps=50
        --set colour_imitator=blender_addon/models/lipstick_colour.onnx --set lambda_colour=1.0 --set log_every=250
        --set checkpoint_every=1000)
-$VTO train encoder --data out/data/lip64d out/data/faces61 --out out/runs/lipstick_encoder_faces "${VIEWS[@]}" \
+$VTO train encoder --data out/data/lip64d out/data/faces61 --out out/runs/lipstick_encoder_faces "${SETTINGS[@]}" \
     --set steps="${STEPS:-6000}" --set init=out/lipstick_encoder_procedural.onnx
 $VTO export --encoder out/runs/lipstick_encoder_faces --out out/lipstick_encoder_faces.onnx
-$VTO train encoder --data out/data/lip64d out/data/faces61 --out out/runs/lipstick_encoder_filtered "${VIEWS[@]}" \
+$VTO train encoder --data out/data/lip64d out/data/faces61 --out out/runs/lipstick_encoder_filtered "${SETTINGS[@]}" \
     --set steps="${FILTER_STEPS:-4000}" --set init=out/lipstick_encoder_faces.onnx --set input_filter=3
 $VTO export --encoder out/runs/lipstick_encoder_filtered --out blender_addon/models/lipstick_encoder.onnx
 python -m benchmarks.bench_photo_sources --compare out/lipstick_encoder_procedural.onnx

@@ -27,11 +27,16 @@ def trained_on_mirrors(checkpoint: dict) -> bool:
     return bool(checkpoint.get("config", {}).get("augment", False))
 
 
+def input_filter(checkpoint: dict) -> int:
+    """The box filter a run's encoder reads its input through (networks.Encoder), 0 for none."""
+    return checkpoint["model_args"].get("input_filter", 0)
+
+
 def encoder_metadata(checkpoints: list[dict], mirror_averaged: bool) -> dict[str, str]:
     """What the ONNX file says about itself: spec, renderer, input size and format, mirror averaging, the input's
     filter, versions."""
     height, width = checkpoints[0]["image_size"]
-    filters = sorted({c["model_args"].get("input_filter", 0) for c in checkpoints})
+    filters = sorted({input_filter(c) for c in checkpoints})
     spec = checkpoints[0]["spec"]
     return {
         f"{METADATA_PREFIX}kind": "encoder",
@@ -124,8 +129,8 @@ def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, m
     run_paths = [run_paths] if isinstance(run_paths, (str, os.PathLike)) else list(run_paths)
     checkpoints = load_encoder_runs(run_paths)
     if smooth:
-        checkpoints = [{**c, "model_args": {**c["model_args"], "input_filter": c["model_args"].get("input_filter")
-                                             or 3}} for c in checkpoints]
+        checkpoints = [{**c, "model_args": {**c["model_args"], "input_filter": input_filter(c) or 3}}
+                       for c in checkpoints]
     spec = RendererSpec.from_dict(checkpoints[0]["spec"])
     wraps = [p.wraps for p in spec.modelled_params]
     mirror_averaged = mirror and all(trained_on_mirrors(c) for c in checkpoints)
@@ -159,7 +164,7 @@ def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, m
         if tmp.exists():
             tmp.unlink()
     return {"out": str(out), "max_abs_diff": parity, "input_size": [height, width], "mirror_averaged": mirror_averaged,
-            "input_filter": [c["model_args"].get("input_filter", 0) for c in checkpoints],
+            "input_filter": [input_filter(c) for c in checkpoints],
             "averaged_runs": len(checkpoints), "params": checkpoints[0]["spec"]["modelled"]}
 
 
