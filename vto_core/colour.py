@@ -26,7 +26,7 @@ def _require_rgb_last_axis(values, name):
 
 
 def _srgb_to_linear64(srgb):
-    """(...) float64 -> (...) float64, IEC 61966-2-1 decoding with negatives sent to 0."""
+    """(...) float64 (or float32, computed in it) -> the same, IEC 61966-2-1 decoding with negatives sent to 0."""
     # The power branch is evaluated everywhere by np.where, so keep its base non-negative.
     power_base = np.maximum((srgb + 0.055) / 1.055, 0.0)
     with np.errstate(over="ignore"):
@@ -153,17 +153,26 @@ _SRGB_TO_XYZ = np.array([[0.4124564, 0.3575761, 0.1804375],
                          [0.2126729, 0.7151522, 0.0721750],
                          [0.0193339, 0.1191920, 0.9503041]])
 _D65_WHITE = np.array([0.95047, 1.0, 1.08883])
+LAB_FLOAT32_LIMIT = 1e4  # |value| up to which float32 sRGB converts to CIELAB in float32 (2.4th power: no overflow)
 
 
-def srgb_to_lab(srgb):
-    """srgb: (..., 3) display values -> (..., 3) float32 CIELAB (D65; L in [0, 100] for [0, 1] input)."""
-    srgb = _as_float64(srgb)
-    _require_rgb_last_axis(srgb, "srgb")
-    xyz = _srgb_to_linear64(np.nan_to_num(srgb, nan=0.0, posinf=1.0, neginf=0.0)) @ _SRGB_TO_XYZ.T / _D65_WHITE
-    epsilon, kappa = 216 / 24389, 24389 / 27
+def srgb_to_lab(srgb, fast: bool = False):
+    """srgb: (..., 3) display values -> (..., 3) float32 CIELAB (D65; L in [0, 100] for [0, 1] input). With `fast`,
+    float32 input whose values all lie within LAB_FLOAT32_LIMIT is converted in float32 arithmetic: 3x faster, within
+    1e-4 of the float64 conversion on [0, 1] (a work grid's colours; statistics and fits keep float64)."""
+    values = np.asarray(srgb)
+    _require_rgb_last_axis(values, "srgb")
+    if fast and values.dtype == np.float32 and np.all(np.abs(values) <= LAB_FLOAT32_LIMIT):  # NaN, inf fail the test
+        return _srgb_to_lab(values, np.float32)
+    return _to_float32(_srgb_to_lab(np.nan_to_num(_as_float64(values), nan=0.0, posinf=1.0, neginf=0.0), np.float64))
+
+
+def _srgb_to_lab(srgb, dtype):
+    """(..., 3) finite display values of `dtype` -> (..., 3) CIELAB of `dtype`, computed in it."""
+    xyz = _srgb_to_linear64(srgb) @ _SRGB_TO_XYZ.T.astype(dtype) / _D65_WHITE.astype(dtype)
+    epsilon, kappa = dtype(216 / 24389), dtype(24389 / 27)
     f = np.where(xyz > epsilon, np.cbrt(xyz), (kappa * xyz + 16) / 116)
-    return _to_float32(np.stack([116 * f[..., 1] - 16, 500 * (f[..., 0] - f[..., 1]), 200 * (f[..., 1] - f[..., 2])],
-                                -1))
+    return np.stack([116 * f[..., 1] - 16, 500 * (f[..., 0] - f[..., 1]), 200 * (f[..., 1] - f[..., 2])], -1)
 
 
 def ciede2000(lab1, lab2):

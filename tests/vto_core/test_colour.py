@@ -279,3 +279,19 @@ def test_srgb_to_lab_known_values_and_extremes():
     np.testing.assert_allclose(lab[3], [53.39, 0.0, 0.0], atol=0.02)
     hdr = srgb_to_lab(np.array([[np.nan, np.inf, -np.inf], [1e30, 2.0, 0.5]]))
     assert np.isfinite(hdr).all()
+
+
+def test_srgb_to_lab_in_float32_matches_float64():
+    """fast: float32 input converts in float32 within 1e-4 of float64 (and only with it); HDR and non-finite float32
+    stay finite."""
+    from vto_core.colour import LAB_FLOAT32_LIMIT, srgb_to_lab
+
+    values = np.random.default_rng(0).random((64, 64, 3))
+    fast, exact = srgb_to_lab(values.astype(np.float32), fast=True), srgb_to_lab(values.astype(np.float32) * 1.0)
+    assert fast.dtype == np.float32 and np.array_equal(srgb_to_lab(values.astype(np.float32)), exact)
+    np.testing.assert_allclose(fast, exact, atol=1e-4)
+    assert np.abs(fast - exact).max() > 0  # the float32 arithmetic was taken
+    hdr = np.array([[np.nan, np.inf, -np.inf], [1e30, 2 * LAB_FLOAT32_LIMIT, 0.5], [-5.0, LAB_FLOAT32_LIMIT, 0.0]],
+                   np.float32)
+    assert np.isfinite(srgb_to_lab(hdr, fast=True)).all()
+    np.testing.assert_allclose(srgb_to_lab(hdr[2:], fast=True), srgb_to_lab(hdr[2:]), rtol=1e-5)

@@ -163,7 +163,7 @@ class HairLocator:
         if frame.share_in_photo() < CROP_SHARE:
             wider = frame.segmenter_matrix(CROP_ZOOM)
             person = np.maximum(seen, frame.sample_person(self.person(image, wider, repeat_edges=True), wider))
-        lab = srgb_to_lab(rgb)
+        lab = srgb_to_lab(rgb, fast=True)
         oval = frame.polygon(face.landmarks[FACE_OVAL])
         in_photo = np.where(frame.inside, person, np.nan)  # beyond the photo: neither the person nor the background
         models = colour_models(lab, oval & ~frame.above_brows(), in_photo, frame.clothes())
@@ -405,36 +405,52 @@ class HeadFrame:
         along the photo's axes, the score interpolated bilinearly (edges repeated) at each photo pixel on the grid,
         > 0.5 (a row of the photo at a time, then a column); along a tilted head's, the score so resized to up to
         TO_IMAGE_UPSAMPLE times the grid, > 0.5, each photo pixel taking its nearest, in bands of TO_IMAGE_ROWS rows
-        (a large photo costs no whole-photo grids)."""
-        x0, y0, w, h = self.box
+        (a large photo costs no whole-photo grids). Either way only the photo pixels near the score's non-zero cells
+        are worked on: elsewhere the score interpolates to 0."""
         mask = np.zeros(self.shape, np.float32)
+        rows_held, cols_held = np.flatnonzero(score.any(axis=1)), np.flatnonzero(score.any(axis=0))
+        if not rows_held.size:
+            return mask
+        # A position reads a non-zero cell only within [first - 0.5, last + 1.5) of the non-zero cells (linear_taps).
+        row_span = (rows_held[0] - 0.5, rows_held[-1] + 1.5)
+        col_span = (cols_held[0] - 0.5, cols_held[-1] + 1.5)
+        x0, y0, w, h = self.box
         if not self.turn:
             cols = (x0 + np.arange(w) + 0.5 - self.low[0]) * self.scale
             rows = (y0 + np.arange(h) + 0.5 - self.low[1]) * self.scale
-            (left, right), (top, bottom) = on_grid(cols, self.cols), on_grid(rows, self.rows)
+            (left, right), (top, bottom) = on_grid(cols, self.cols, col_span), on_grid(rows, self.rows, row_span)
             mask[y0 + top:y0 + bottom, x0 + left:x0 + right] = linear_resize(score, rows[top:bottom],
                                                                              cols[left:right]) > 0.5
             return mask
         fine = min(TO_IMAGE_UPSAMPLE, max(1, math.ceil(1 / self.scale)))
-        rows, cols = self.rows * fine, self.cols * fine
-        hair = (linear_resize(score, (np.arange(rows) + 0.5) / fine, (np.arange(cols) + 0.5) / fine) > 0.5).ravel()
+        (top, bottom), (left, right) = (on_grid((np.arange(size * fine) + 0.5) / fine, size, span)
+                                        for size, span in ((self.rows, row_span), (self.cols, col_span)))
+        rows, cols = bottom - top, right - left  # the fine grid's part that can hold hair, from (top, left)
+        hair = (linear_resize(score, (np.arange(top, bottom) + 0.5) / fine,
+                              (np.arange(left, right) + 0.5) / fine) > 0.5).ravel()
         # The fine grid's col and row are affine in the photo's x and y: each a x + b y + c.
         origin = self.to_work(np.zeros(2)) * fine
         (col_x, row_x), (col_y, row_y) = (self.to_work(np.eye(2)) * fine - origin).astype(np.float32)
         col_0, row_0 = origin.astype(np.float32)
-        xs = (x0 + np.arange(w) + 0.5).astype(np.float32)
-        for top in range(y0, y0 + h, TO_IMAGE_ROWS):
-            ys = (np.arange(top, min(top + TO_IMAGE_ROWS, y0 + h)) + 0.5).astype(np.float32)[:, None]
-            col = np.floor(col_x * xs + (col_y * ys + col_0)).astype(np.intp)
-            row = np.floor(row_x * xs + (row_y * ys + row_0)).astype(np.intp)
+        # Only the photo pixels whose box holds that part's corners can land on it.
+        corners = np.array(self.from_work(np.array([left, right, left, right]) / fine,
+                                          np.array([top, top, bottom, bottom]) / fine))
+        x_low, y_low = np.maximum(np.floor(corners.min(axis=1)).astype(int) - 1, (x0, y0))
+        x_high, y_high = np.minimum(np.ceil(corners.max(axis=1)).astype(int) + 1, (x0 + w, y0 + h))
+        xs = (np.arange(x_low, max(x_high, x_low)) + 0.5).astype(np.float32)
+        for band in range(y_low, y_high, TO_IMAGE_ROWS):
+            ys = (np.arange(band, min(band + TO_IMAGE_ROWS, y_high)) + 0.5).astype(np.float32)[:, None]
+            col = np.floor(col_x * xs + (col_y * ys + col_0)).astype(np.intp) - left  # from the part's corner
+            row = np.floor(row_x * xs + (row_y * ys + row_0)).astype(np.intp) - top
             within = (col >= 0) & (col < cols) & (row >= 0) & (row < rows)
-            mask[top:top + len(ys), x0:x0 + w] = hair[np.where(within, row * cols + col, 0)] & within
+            mask[band:band + len(ys), x_low:x_low + len(xs)] = hair[np.where(within, row * cols + col, 0)] & within
         return mask
 
 
-def on_grid(positions: np.ndarray, size: int) -> tuple[int, int]:
-    """Increasing positions (n,) on an axis of `size` work pixels -> the slice [start, stop) of those on it."""
-    return int(np.searchsorted(positions, 0.0)), int(np.searchsorted(positions, size))
+def on_grid(positions: np.ndarray, size: int, span: tuple[float, float] = (0.0, math.inf)) -> tuple[int, int]:
+    """Increasing positions (n,) on an axis of `size` work pixels -> the slice [start, stop) of those on it and in
+    [span[0], span[1])."""
+    return int(np.searchsorted(positions, max(0.0, span[0]))), int(np.searchsorted(positions, min(size, span[1])))
 
 
 def linear_taps(positions: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

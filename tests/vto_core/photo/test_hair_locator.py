@@ -283,6 +283,19 @@ def test_an_upright_grid_is_drawn_back_by_rows_and_columns_as_a_turned_one_is_pi
     assert (by_axes != by_pixels).sum() < 0.03 * by_axes.sum()  # at the edges, by a fraction of a work pixel
 
 
+def test_only_the_cells_that_score_are_drawn_back_and_the_rest_of_the_region_is_left_as_it_was(reader, astronaut):
+    """to_image works near the score's non-zero cells only: a blob is drawn exactly as when every cell scores a
+    little (the whole region worked on), through the upright and the tilted path alike."""
+    frame = hl.HeadFrame(reader.read(astronaut).landmarks, 512, 512)
+    blob = np.zeros((frame.rows, frame.cols), np.float32)
+    blob[5:12, frame.cols - 9:frame.cols - 2] = 1.0  # near a corner of the region, sharp: its edge cells count
+    for turn in (0.0, 1e-12):
+        frame.turn = turn
+        drawn, everywhere = frame.to_image(blob), frame.to_image(blob + np.float32(1e-6))
+        assert drawn.sum() > 100 and np.array_equal(drawn, everywhere)
+    assert not frame.to_image(np.zeros_like(blob)).any()
+
+
 def test_a_canvas_black_border_is_padding_and_black_in_the_scene_is_not():
     rgb = np.full((20, 30, 3), 0.4, np.float32)
     rgb[:6, :8] = 0.0  # a turned photo's black corner, at the grid's edge
