@@ -11,7 +11,7 @@ bpy = pytest.importorskip("bpy")
 from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
 from blender_addon.matching.photo_fit import (FIT_QUALITY, LIPS_POOL, apparent_colour, iter_fit_photo,  # noqa: E402
-                                              iter_lips_fit_sources, iter_lips_pool, photo_values)
+                                              iter_lips_fit_sources, iter_lips_pool, photo_values, polish_colour)
 from blender_addon.matching.refine import drain  # noqa: E402
 from blender_addon.renderers.scene_lips import lips_mask  # noqa: E402
 from blender_addon.scratch import scratch_data  # noqa: E402
@@ -154,6 +154,30 @@ def test_fast_keeps_the_lipstick_when_the_render_is_re_lit_warm(tmp_path):
     assert np.abs(colours["as is", False] - colours["as is", True]).max() < 0.03
     fast_moved, encoder_moved = (delta_e(colours["as is", keep], colours["warm", keep]) for keep in (False, True))
     assert fast_moved < encoder_moved / 2, (fast_moved, encoder_moved)
+
+
+def test_hair_fast_polishes_its_mean_colour_on_the_real_stage_keeping_only_what_comes_nearer():
+    """A photo of hair (region 7 recoloured auburn) and a start whose colour is off (the hue a tenth of a turn on): the
+    polish brings the default region's hair nearer the photo's mean colour, each step judged by a render; one render
+    only judges the start; a black or a white photo gives values inside their ranges."""
+    spec = get_spec("hair")
+    photo = render_hair_source(7, RES, 8)
+    truth = {"brightness": 0.05, "contrast": 1.2, "exposure": 1.1, "gamma": 1.3, "hue": 0.05, "saturation": 1.6,
+             "shine": 0.3}
+    region = (run_hair_stage(photo, truth), photo.mask)
+    start = {**truth, "hue": 0.15, "saturation": 1.0}
+
+    def off(values):
+        shown = apparent_colour("hair", spec.full_values(values), [900001], RES, 8)["mean"]
+        return delta_e(mean_colour(*region), shown)
+
+    polished = polish_colour(spec, region, start, renders=3, res=RES, samples=8)
+    assert off(start) > 5 and off(polished) < 0.5 * off(start), (off(start), off(polished))
+    assert polish_colour(spec, region, start, renders=1, res=RES, samples=8) == pytest.approx(start)
+    for level in (0.0, 1.0):
+        flat = (np.full((RES, RES, 3), level, np.float32), photo.mask)
+        values = polish_colour(spec, flat, start, renders=3, res=RES, samples=8)
+        assert all(spec.by_name[n].low <= v <= spec.by_name[n].high for n, v in values.items()), values
 
 
 def test_fast_starts_its_colour_fit_round_the_hue_circle():
