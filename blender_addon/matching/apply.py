@@ -39,7 +39,8 @@ from vto_core.specs import RendererSpec, get_spec
 
 from ..compat import uses_nodes
 from ..shipped import MODELS
-from .photo_fit import FIT_QUALITY, NO_REGION, QUALITIES, fit_photo_fast, iter_fit_photo, photo_values
+from .photo_fit import (FAST_FITS, FAST_POLISH, FIT_QUALITY, NO_REGION, QUALITIES, fit_photo_fast, iter_fit_photo,
+                        iter_polish_colour, photo_values)
 from .reference import absolute_path, read_reference
 from .refine import drain
 
@@ -163,25 +164,33 @@ def prepare(renderer: str, settings: dict) -> dict:
     if quality != "FAST" and reference.region is None:
         raise VtoError(f"quality {quality.title()} {NO_REGION}")
     return {"session": session, "spec": spec, "model": str(model), "reference": reference, "quality": quality,
-            "budget": FIT_QUALITY[renderer][quality][1] if quality != "FAST" else 0}
+            "budget": FIT_QUALITY[renderer][quality][1] if quality != "FAST" else polish_renders(spec, reference)}
+
+
+def polish_renders(spec, reference) -> int:
+    """The renders Fast's polish takes on this reference (photo_fit.FAST_POLISH; none without a region or a fit)."""
+    return FAST_POLISH[spec.renderer] if reference.region is not None and FAST_FITS[spec.renderer] else 0
 
 
 def iter_compute(prepared: dict):
     """The encoder's estimate of the photo with its light taken out (Fast; for hair fitted to the hair's colour
-    statistics through the colour imitator, milliseconds), or, when the quality asks, fitted to the colour statistics
-    through the real renderer on default sources (blender_addon.matching.photo_fit). A generator: yields renders made so
-    far (none for Fast) and returns parameter -> raw value, inside its range: the modelled ones and what a photo fixes
-    (photo_fit.photo_values)."""
+    statistics through the colour imitator, its mean colour then polished on FAST_POLISH stage passes), or, when the
+    quality asks, fitted to the colour statistics through the real renderer on default sources from the unpolished fit
+    (blender_addon.matching.photo_fit). A generator: yields renders made so far (none for lips' Fast) and returns
+    parameter -> raw value, inside its range: the modelled ones and what a photo fixes (photo_fit.photo_values)."""
+    from ..scratch import scratch_data
+
     spec, reference = prepared["spec"], prepared["reference"]
     values = encoder = estimate(prepared["session"], spec, reference.image)
     if reference.region is not None:
-        values, note = fit_photo_fast(spec, reference.region, values)
+        values, note = fit_photo_fast(spec, reference.region, values, polish=False)
         reference.notes += [note] if note else []
+        if not note and prepared["quality"] == "FAST" and polish_renders(spec, reference):
+            with scratch_data():  # the default scenes the fit renders leave nothing in the artist's .blend
+                values = yield from iter_polish_colour(spec, reference.region, values)
     values = photo_values(spec, values)
     if prepared["quality"] != "FAST":
-        from ..scratch import scratch_data
-
-        with scratch_data():  # the default scenes the fit renders leave nothing in the artist's .blend
+        with scratch_data():
             values = yield from iter_fit_photo(spec, reference.region, encoder, prepared["quality"],
                                                others=(values,), photo=(reference.whole, reference.lips))
         values = photo_values(spec, values)

@@ -1,6 +1,7 @@
 """Fast, Better and Best for a photo whose scene is unknown (its light already taken out,
 blender_addon.matching.reference): the encoder's estimate (lips' Fast), or that estimate fitted to what the photo shows
-of the material, through the colour imitator (hair's Fast) or the real renderer on default-scene sources (Better, Best).
+of the material, through the colour imitator with its mean colour polished on three stage passes (hair's Fast) or
+through the real renderer on default-scene sources (Better, Best).
 
 A photo of real lips (or of an artist's reference hair) has no source X to render the estimate on, so the render
 cannot be compared with it pixel by pixel. What can be compared is the region's colour statistics
@@ -259,16 +260,22 @@ def colour_imitator_path(renderer: str) -> Path:
 
 
 def fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
-                   imitator_path: Path | None = None) -> tuple[dict[str, float], str]:
+                   imitator_path: Path | None = None, polish: bool = True) -> tuple[dict[str, float], str]:
     """Fast: the encoder's estimate `start` (modelled raw values) as it is where FAST_FITS says the colour fit does
-    not pay, else fit_colour's, its mean colour then polished on the real stage (polish_colour, FAST_POLISH renders).
-    Returns the values and a note for the user ("" when none)."""
+    not pay, else fit_colour's, its mean colour then polished on the real stage (iter_polish_colour, FAST_POLISH
+    renders; nothing of them left in the .blend) unless `polish` is False: Better and Best start from the fit
+    unpolished, and the panel runs the polish itself, between redraws. Returns the values and a note for the user
+    ("" when none)."""
     if not FAST_FITS[spec.renderer]:
         return dict(start), ""
     fitted, note = fit_colour(spec, region, start, imitator_path)
-    if note or not FAST_POLISH[spec.renderer]:
+    if note or not polish or not FAST_POLISH[spec.renderer]:
         return fitted, note
-    return polish_colour(spec, region, fitted, imitator_path), ""
+    from ..scratch import scratch_data
+    from .refine import drain
+
+    with scratch_data():
+        return drain(iter_polish_colour(spec, region, fitted, imitator_path)), ""
 
 
 def fit_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
@@ -305,14 +312,14 @@ def fit_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start:
     return {name: float(fitted[name]) for name in spec.modelled}, ""
 
 
-def polish_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
-                  imitator_path: Path | None = None, renders: int | None = None, res: int = FIT_RES,
-                  samples: int = DEFAULT_SAMPLES) -> dict[str, float]:
+def iter_polish_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
+                       imitator_path: Path | None = None, renders: int | None = None, res: int = FIT_RES,
+                       samples: int = DEFAULT_SAMPLES):
     """The modelled values (raw) near `start` whose render on the default scene (FIT_SOURCES[0]'s region) shows the
     photo region's mean colour: Gauss-Newton on that colour's CIELAB, its residual from real renders, its Jacobian
     from the colour imitator's mean; `renders` (FAST_POLISH) renders in all, each judging the step before it, and the
     values whose render came nearest (CIEDE2000) are kept (`start` where no step came nearer); a step that came no
-    nearer is retried shorter from the best."""
+    nearer is retried shorter from the best. A generator: yields renders made so far, returns the modelled values."""
     from vto_core.appearance import mean_colour
     from vto_core.colour import ciede2000, srgb_to_lab
     from vto_core.colour_imitator import STEP, cached_imitator
@@ -329,6 +336,7 @@ def polish_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], sta
         values = spec.values(spec.denormalise(unit))
         shown = srgb_to_lab(mean_colour(*render(spec.full_values(photo_values(spec, values))))).astype(np.float64)
         miss = float(ciede2000(shown, photo))
+        yield k + 1
         if miss < best_miss:
             best, best_miss, best_shown = unit, miss, shown
         else:  # the step went no nearer: a shorter one from the best so far

@@ -11,7 +11,8 @@ bpy = pytest.importorskip("bpy")
 from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
 from blender_addon.matching.photo_fit import (FIT_QUALITY, LIPS_POOL, apparent_colour, iter_fit_photo,  # noqa: E402
-                                              iter_lips_fit_sources, iter_lips_pool, photo_values, polish_colour)
+                                              iter_lips_fit_sources, iter_lips_pool, iter_polish_colour,
+                                              photo_values)
 from blender_addon.matching.refine import drain  # noqa: E402
 from blender_addon.renderers.scene_lips import lips_mask  # noqa: E402
 from blender_addon.scratch import scratch_data  # noqa: E402
@@ -171,12 +172,14 @@ def test_hair_fast_polishes_its_mean_colour_on_the_real_stage_keeping_only_what_
         shown = apparent_colour("hair", spec.full_values(values), [900001], RES, 8)["mean"]
         return delta_e(mean_colour(*region), shown)
 
-    polished = polish_colour(spec, region, start, renders=3, res=RES, samples=8)
+    renders = []
+    polished = drain(iter_polish_colour(spec, region, start, renders=3, res=RES, samples=8), renders.append)
     assert off(start) > 5 and off(polished) < 0.5 * off(start), (off(start), off(polished))
-    assert polish_colour(spec, region, start, renders=1, res=RES, samples=8) == pytest.approx(start)
+    assert renders == [1, 2, 3]
+    assert drain(iter_polish_colour(spec, region, start, renders=1, res=RES, samples=8)) == pytest.approx(start)
     for level in (0.0, 1.0):
         flat = (np.full((RES, RES, 3), level, np.float32), photo.mask)
-        values = polish_colour(spec, flat, start, renders=3, res=RES, samples=8)
+        values = drain(iter_polish_colour(spec, flat, start, renders=3, res=RES, samples=8))
         assert all(spec.by_name[n].low <= v <= spec.by_name[n].high for n, v in values.items()), values
 
 

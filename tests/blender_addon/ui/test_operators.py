@@ -455,6 +455,37 @@ def test_hair_fast_and_better_write_the_compositor_groups(tmp_path):
     assert (better["intensity"], better["blend"]) == (1.0, -1.0)
 
 
+def test_hair_fast_polishes_as_vto_match_does_and_leaves_nothing_behind(tmp_path):
+    """The panel's hair Fast with the shipped models: the polish's stage passes run as steps of the operator (a budget
+    of FAST_POLISH renders), the values are those `vto match` writes (photo_fit.fit_photo_fast), and the default
+    scenes the passes render are gone afterwards."""
+    from blender_addon.matching.photo_fit import FAST_POLISH, fit_photo_fast
+    from blender_addon.matching.reference import read_reference
+
+    model = str(MODELS / "hair_encoder.onnx")
+    scene = bpy.data.scenes.new("Hair Polish")
+    with bpy.context.temp_override(scene=scene):
+        bpy.ops.vto.add_hair_compositor()
+    rng = np.random.default_rng(3)
+    photo = np.clip(np.array([0.35, 0.22, 0.12]) * (1 + 0.2 * rng.standard_normal((24, 24, 1))), 0, 1)
+    write_image(tmp_path / "auburn.png", photo.astype(np.float32), bits=16)
+    write_image(tmp_path / "auburn_mask.png", np.ones((24, 24), np.float32))
+    settings = {"image_path": str(tmp_path / "auburn.png"), "mask_path": str(tmp_path / "auburn_mask.png")}
+    assert apply.prepare("hair", {**settings, "model_path": model, "quality": "FAST"})["budget"] == FAST_POLISH["hair"]
+    kinds = ("scenes", "node_groups", "images", "objects", "materials")
+    before = {kind: set(getattr(bpy.data, kind).keys()) for kind in kinds}
+    with bpy.context.temp_override(scene=scene):
+        assert run_match(target="HAIR", model_path=model, **settings)[0] == {"FINISHED"}
+    assert {kind: set(getattr(bpy.data, kind).keys()) for kind in kinds} == before
+    written = {p.name: float(n.inputs[p.socket].default_value) for n in apply.hair_nodes(scene)
+               for p in get_spec("hair").params if p.socket in n.inputs}
+    session = EncoderSession(model)
+    reference = read_reference("hair", settings)  # as the panel reads it
+    estimate = session.predict(reference.image)[0]
+    expected = fit_photo_fast(session.spec, reference.region, {k: estimate[k] for k in session.spec.modelled})[0]
+    assert {k: written[k] for k in expected} == pytest.approx(expected, abs=1e-4)
+
+
 @pytest.fixture(scope="module")
 def portrait(tmp_path_factory):
     """scikit-image's astronaut portrait (public domain, NASA), whole."""
