@@ -68,10 +68,10 @@ HUE_TURNS = (0.0, 0.25, 0.5, 0.75)  # where on the hue circle Fast's colour fit 
 # (seed 9001) 33.80 dB against 33.74; on the 18 portraits against the hand-drawn hair a median 3.07 against 3.14
 # CIEDE2000 (tight crops 2.43 against 2.57); tilted -45..45 degrees, 8 portraits moved a median 0.60 against 0.79.
 NEAR_TIE = 0.15
-# Hair Fast's colour fit then polishes its mean colour on the real stage (polish_colour): the imitator is a few CIELAB
-# units off where some fits settle (a grey hair at saturation 0 read as green), and which of its near-equal valleys a
-# fit settles in turns on the fourth decimal of the photo's statistics. Renders of the default region (~10 ms each,
-# the region rendered once a session) judge and correct it. Lips Fast does not fit (FAST_FITS).
+# Hair Fast's colour fit then polishes its mean colour on the real stage (iter_polish_colour): the imitator is a few
+# CIELAB units off where some fits settle (a grey hair at saturation 0 read as green), and which of its near-equal
+# valleys a fit settles in turns on the fourth decimal of the photo's statistics. Renders of the default region (~10 ms
+# each, the region rendered once a session) judge and correct it. Lips Fast does not fit (FAST_FITS).
 FAST_POLISH = {"lipstick": 0, "hair": 3}
 POLISH_DAMPING = 0.01  # Marquardt damping of the polish's steps (a share of the Gauss-Newton matrix's diagonal)
 POLISH_SHORTER = 10.0  # the damping grows this much after a step whose render went no nearer
