@@ -39,8 +39,8 @@ from vto_core.specs import RendererSpec, get_spec
 
 from ..compat import uses_nodes
 from ..shipped import MODELS
-from .photo_fit import (FAST_FITS, FAST_POLISH, FIT_QUALITY, NO_REGION, QUALITIES, fit_photo_fast, iter_fit_photo,
-                        iter_polish_colour, photo_values)
+from .photo_fit import (FAST_FITS, FAST_POLISH, FIT_QUALITY, NO_REGION, QUALITIES, iter_fit_photo,
+                        iter_fit_photo_fast, photo_values)
 from .reference import absolute_path, read_reference
 from .refine import drain
 
@@ -183,14 +183,12 @@ def iter_compute(prepared: dict):
     spec, reference = prepared["spec"], prepared["reference"]
     values = encoder = estimate(prepared["session"], spec, reference.image)
     if reference.region is not None:
-        values, note = fit_photo_fast(spec, reference.region, values, polish=False)
+        values, note = yield from iter_fit_photo_fast(spec, reference.region, values,
+                                                      polish=prepared["quality"] == "FAST")
         reference.notes += [note] if note else []
-        if not note and prepared["quality"] == "FAST" and polish_renders(spec, reference):
-            with scratch_data():  # the default scenes the fit renders leave nothing in the artist's .blend
-                values = yield from iter_polish_colour(spec, reference.region, values)
     values = photo_values(spec, values)
     if prepared["quality"] != "FAST":
-        with scratch_data():
+        with scratch_data():  # the default scenes the fit renders leave nothing in the artist's .blend
             values = yield from iter_fit_photo(spec, reference.region, encoder, prepared["quality"],
                                                others=(values,), photo=(reference.whole, reference.lips))
         values = photo_values(spec, values)
