@@ -186,11 +186,11 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
             return {"CANCELLED"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
-        if another_thread_renders():
-            return {"RUNNING_MODAL"}  # wait: a render now would hold the Python lock that render's thread needs
         deadline = time.perf_counter() + TICK_SECONDS
         try:
             while True:
+                if another_thread_renders():
+                    return {"RUNNING_MODAL"}  # wait: a render now would hold the Python lock that render's thread needs
                 context.window_manager.progress_update(next(self._steps))
                 if time.perf_counter() > deadline:
                     return {"RUNNING_MODAL"}
@@ -209,16 +209,23 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
         context.window_manager.progress_end()
 
 
+BLENDER_JOBS = ("RENDER_PREVIEW", "RENDER", "COMPOSITE")  # bpy.app.is_job_running's types that render in a thread
+
+
 def another_thread_renders() -> bool:
-    """Whether a thread other than this one is inside Cycles' Python render callbacks (the material preview icons
-    Blender re-renders in a job thread after a material changes, e.g. the quality chosen on the panel).
+    """Whether Blender renders in a job thread (the material preview and its icons, re-rendered after a material
+    changes; an F12 render; the compositor) or a thread other than this one is inside Cycles' Python callbacks.
 
     Starting a render from the main thread then deadlocks Blender (seen in Blender 4.3: the main thread waits for the
-    preview job holding the Python lock, the job waits for the lock), and bpy.app.is_job_running does not see these
-    previews, so the threads' Python frames are read instead."""
+    preview job holding the Python lock, the job waits for the lock). In a real window the preview's job is running
+    from its start, while its thread is still in C between the preview's renders where no Python frame shows it
+    (scripts/real_window: a material changed every 3 s, polled every millisecond); the frames also catch a render in
+    a thread that Blender's job list does not hold."""
     import sys
     import threading
 
+    if any(bpy.app.is_job_running(kind) for kind in BLENDER_JOBS):
+        return True
     here = threading.get_ident()
     for ident, frame in sys._current_frames().items():
         while ident != here and frame is not None:

@@ -840,6 +840,42 @@ def test_the_modal_refinement_writes_only_at_the_end_and_esc_changes_nothing(tmp
     assert running.reports[-1][0] == {"INFO"} and running.reports[-1][1].startswith("matched the compositor")
 
 
+def test_refinement_checks_for_other_renders_before_every_step(monkeypatch):
+    """Within one timer tick the modal Match asks before each step whether Blender renders elsewhere (a preview job
+    started since the tick began is seen before the next render, not a tick later)."""
+    from types import SimpleNamespace
+
+    from blender_addon.ui import operators
+
+    taken, busy = [], iter([False, False, True])
+
+    def steps():
+        for step in range(10):
+            taken.append(step)
+            yield step
+
+    modal = SimpleNamespace(_steps=steps(), stop=lambda context: None)
+    manager = SimpleNamespace(progress_update=lambda value: None)
+    monkeypatch.setattr(operators, "TICK_SECONDS", 60.0)  # the tick alone would take every step
+    monkeypatch.setattr(operators, "another_thread_renders", lambda: next(busy))
+    state = operators.VTO_OT_match_from_photo.modal(modal, SimpleNamespace(window_manager=manager),
+                                                   SimpleNamespace(type="TIMER"))
+    assert state == {"RUNNING_MODAL"} and taken == [0, 1]
+
+
+def test_blender_jobs_waited_for_are_ones_blender_knows():
+    """Each job type the modal Match waits for is one bpy.app.is_job_running accepts (a misspelt one raises), and in
+    the background none runs."""
+    import bpy
+
+    from blender_addon.ui.operators import BLENDER_JOBS, another_thread_renders
+
+    assert {"RENDER_PREVIEW", "RENDER"} <= set(BLENDER_JOBS)
+    assert not any(bpy.app.is_job_running(kind) for kind in BLENDER_JOBS) and not another_thread_renders()
+    with pytest.raises(ValueError, match="not found"):
+        bpy.app.is_job_running("RENDER_PREVIEWS")
+
+
 def test_refinement_waits_while_another_thread_renders_in_cycles(tmp_path):
     """The modal Match does not render while Cycles' Python render callbacks run in a job thread (a material
     preview): starting a render then deadlocked Blender 4.3 in a real window."""
