@@ -68,7 +68,7 @@ def main() -> None:
     rows += [["lipstick Better, fitted in the photo's own scene (25 renders)", f"{ms:,.0f}"]
              for ms in lips.get("better_ms", [])]
     better = hair.get("better_ms", [])
-    rows += [["hair Better, Compositor sidebar (the first: renders its 2 hair regions first)", f"{ms:,.0f}"]
+    rows += [["hair Better, Compositor sidebar (100 stage passes on its 2 shipped hair regions)", f"{ms:,.0f}"]
              for ms in better]
     found = lips.get("found", {})
     warm = min(second, third)

@@ -32,7 +32,7 @@ from vto_core.errors import VtoError
 from vto_core.hair import PHOTO_HAIR
 from vto_core.specs import RendererSpec
 
-from ..shipped import MODELS
+from ..shipped import DATA, MODELS
 
 # Default-scene seeds the fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up. Lips: a pool
 # the fit picks the sources whose skin is most like the photo's from; hair: its sources in order.
@@ -46,12 +46,15 @@ NO_REGION = ("fits the colour of the lips and needs to know where they are: let 
 FIT_QUALITY = {"lipstick": {"BETTER": (1, 25), "BEST": (2, 100)}, "hair": {"BETTER": (2, 100), "BEST": (4, 400)}}
 # (seconds, seconds the first time in a session) each takes on a 2-core CPU, what the panel tells the artist:
 # benchmarks/results/photo_sources.md and real_window.md, rounded up. Lips: fitted in the photo's own scene
-# (photo_scene_fit: 25 renders at 64 px, 100 at 96 px); hair: its first fit also renders its default regions.
-# Hair Fast: its polish's 3 stage passes, a pass per timer tick in the panel (0.31 s a click, 2.1 s the first in the
-# real window; 0.14 and 3.0 s in `vto match` under a benchmark's load).
+# (photo_scene_fit: 25 renders at 64 px, 100 at 96 px); hair's regions are shipped (FIT_REGIONS), no render.
+# Hair Fast: its polish's 3 stage passes, a pass per timer tick in the panel (0.39 s the first click in the real
+# window, 0.42 s the next; `vto match` on the astronaut: 1.1 s, its process's first, with the imitator's loading).
 FIT_SECONDS = {"lipstick": {"BETTER": (3, 11), "BEST": (12, 18)},
-               "hair": {"FAST": (0.4, 3), "BETTER": (2, 6), "BEST": (6, 10)}}
+               "hair": {"FAST": (0.3, 1), "BETTER": (2, 6), "BEST": (6, 10)}}
 FIT_RES = 64
+# FIT_SOURCES' hair regions at FIT_RES and DEFAULT_SAMPLES, rendered by scripts/render_fit_regions.py: a render in the
+# panel's click took 2 s and could meet a material preview's render thread (Blender 4.3 then deadlocks).
+FIT_REGIONS = "hair_fit_regions.npz"
 # The statistics leave looks ambiguous (a thin white layer with a strong coat can show the lips' colour too): each
 # unit of distance from the fit's start (the encoder's estimate or Fast's) costs this many CIELAB units, so the fit
 # keeps that reading where the photo does not ask for another. Hair statistics depend on the swatch alone (the stage
@@ -92,8 +95,14 @@ def parameter_difference(unit: np.ndarray, start: np.ndarray, wraps: np.ndarray)
 
 @functools.lru_cache(maxsize=16)
 def _hair_region(source: int, res: int, samples: int):
-    from ..renderers.hair import render_hair_source
+    """blender_addon.renderers.hair.HairSource of default-scene `source`'s hair region: FIT_SOURCES' at FIT_RES and
+    DEFAULT_SAMPLES as shipped (FIT_REGIONS: hair's fits render nothing in Cycles), any other rendered now."""
+    from ..renderers.hair import HairSource, render_hair_source
 
+    if source in FIT_SOURCES and res == FIT_RES and samples == DEFAULT_SAMPLES:
+        with np.load(DATA / FIT_REGIONS) as regions:
+            return HairSource(regions[f"rgb_{source}"].astype(np.float32),
+                              regions[f"mask_{source}"].astype(np.float32))
     return render_hair_source(source, res, samples, 0)
 
 

@@ -70,7 +70,7 @@ def draw_quality(column, props, renderer: str) -> None:
 
 
 def quality_cost(renderer: str, quality: str) -> str:
-    """'Fast: no render, milliseconds', 'Fast: 3 stage passes, 0.4-3 s' (FAST_POLISH) or 'Better: 25 renders, 4-17 s'
+    """'Fast: no render, milliseconds', 'Fast: 3 stage passes, 0.3-1 s' (FAST_POLISH) or 'Better: 25 renders, 4-17 s'
     (FIT_QUALITY, FIT_SECONDS)."""
     if quality == "FAST":
         if not FAST_POLISH[renderer]:

@@ -18,6 +18,7 @@ from blender_addon.renderers.scene_lips import lips_mask  # noqa: E402
 from blender_addon.scratch import scratch_data  # noqa: E402
 from vto_core.appearance import mean_colour, skin_light  # noqa: E402
 from vto_core.colour import ciede2000, srgb_to_lab  # noqa: E402
+from vto_core.dataset import DEFAULT_SAMPLES  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.specs import get_spec  # noqa: E402
 
@@ -43,6 +44,26 @@ def test_the_hair_fit_gives_the_default_hair_the_photos_colour_from_a_far_start(
     assert before > 15 and after < 3, (before, after)
     assert renders[-1] == FIT_QUALITY["hair"]["BETTER"][1] and renders == sorted(renders)
     assert set(fitted) == set(spec.modelled)
+
+
+def test_the_shipped_hair_regions_are_the_renders_of_the_fit_sources():
+    """The hair regions hair's fits use come from blender_addon/data (no Cycles render in the panel), and they are what
+    the hair scene renders for those seeds today (bpy 4.5 made them; bpy 5's Cycles renders them near alike)."""
+    from blender_addon.matching import photo_fit
+
+    photo_fit._hair_region.cache_clear()
+    with np.load(photo_fit.DATA / photo_fit.FIT_REGIONS) as regions:
+        assert int(regions["res"]) == photo_fit.FIT_RES and sorted(regions.files) == sorted(
+            ["blender", "res", "samples"] + [f"{k}_{s}" for s in photo_fit.FIT_SOURCES for k in ("rgb", "mask")])
+    shipped = [photo_fit._hair_region(seed, photo_fit.FIT_RES, DEFAULT_SAMPLES) for seed in photo_fit.FIT_SOURCES]
+    assert all(r.rgb.shape == (64, 64, 3) and r.rgb.dtype == np.float32 and r.mask.mean() > 0.5 for r in shipped)
+    assert min(np.abs(a.rgb - b.rgb).mean() for a, b in zip(shipped, shipped[1:])) > 0.01  # four seeds, four looks
+    fresh = render_hair_source(photo_fit.FIT_SOURCES[1], photo_fit.FIT_RES, DEFAULT_SAMPLES, 0)
+    assert (fresh.mask == shipped[1].mask).mean() > 0.99
+    hair = (fresh.mask > 0.5) & (shipped[1].mask > 0.5)
+    assert np.abs(fresh.rgb - shipped[1].rgb)[hair].mean() < 0.002
+    other = photo_fit._hair_region(photo_fit.FIT_SOURCES[1], 32, DEFAULT_SAMPLES)  # not shipped: rendered now
+    assert other.rgb.shape == (32, 32, 3)
 
 
 def test_a_photo_fixes_the_hair_stage_at_full_effect():

@@ -739,7 +739,7 @@ def test_the_fast_label_says_what_each_fast_renders():
     from blender_addon.ui.panels import quality_cost
 
     assert quality_cost("lipstick", "FAST") == "Fast: no render, milliseconds"
-    assert quality_cost("hair", "FAST") == "Fast: 3 stage passes, 0.4-3 s"  # photo_fit.FAST_POLISH, FIT_SECONDS
+    assert quality_cost("hair", "FAST") == "Fast: 3 stage passes, 0.3-1 s"  # photo_fit.FAST_POLISH, FIT_SECONDS
     assert quality_cost("hair", "BETTER") == "Better: 100 renders, 2-6 s"
 
 
