@@ -125,6 +125,32 @@ def test_a_warp_beyond_the_image_is_black_or_repeats_its_edges():
     assert np.allclose(repeated[:, 10:, 13], image[5, 7][:, None])
 
 
+def test_reducing_is_the_block_mean_for_every_channel_count_and_factor():
+    """Each reduced pixel is its block's mean (up to TAPS taps a side), for 1, 3 and 4 channels, kept apart."""
+    rng = np.random.default_rng(5)
+    for channels in (1, 3, 4):
+        image = rng.random((23, 31, channels), dtype=np.float32)
+        for factor in (2, 3, 4, 5, 9):
+            rows, cols = 23 // factor, 31 // factor
+            taps = np.unique(((np.arange(min(factor, fr.TAPS)) + 0.5) * factor / min(factor, fr.TAPS)).astype(int))
+            blocks = image[:rows * factor, :cols * factor].reshape(rows, factor, cols, factor, channels)
+            expected = blocks[:, taps][:, :, :, taps].mean(axis=(1, 3))
+            reduced = fr.reduce(image, factor)
+            assert reduced.shape == (rows, cols, channels) and reduced.dtype == np.float32
+            assert np.abs(reduced - expected).max() < 1e-6, (channels, factor)
+
+
+def test_a_clean_image_is_float32_within_zero_and_one():
+    """is_clean reads the floats' bits in one pass: NaN, infinities, negatives (-0 too) and values above 1 fail."""
+    assert fr.is_clean(np.array([[0.0, 1.0, 0.5, 1e-45]], np.float32))
+    for bad in (np.nan, np.inf, -np.inf, -1e-30, -0.0, 1.0000001, 7.0):
+        assert not fr.is_clean(np.array([[0.2, bad]], np.float32)), bad
+    strided = np.zeros((4, 6, 4), np.float32)
+    strided[..., 3] = 2.0  # only the alpha, which the view leaves out, is out of range
+    assert fr.is_clean(strided[..., :3]) and not fr.is_clean(strided)
+    assert not fr.is_clean(np.zeros((2, 3))) and not fr.is_clean(np.zeros((0, 3), np.float32))
+
+
 def test_reducing_takes_the_same_taps_on_clean_and_unclean_photos():
     image = np.random.default_rng(3).random((40, 50, 3), dtype=np.float32)
     blocks = image[:35, :49].reshape(5, 7, 7, 7, 3)[:, [0, 2, 4, 6]][:, :, :, [0, 2, 4, 6]]  # factor 7: 4 taps a side
