@@ -49,7 +49,7 @@ def estimates(session, region: tuple[np.ndarray, np.ndarray], qualities) -> dict
         started = time.perf_counter()
         reference = hair_reference(region[0], mask=region[1])
         encoder = {k: v for k, v in session.predict(reference.image)[0].items() if k in spec.modelled}
-        values = photo_values(spec, fit_photo_fast(spec, reference.region, encoder, polish=quality == "FAST")[0])
+        values = photo_values(spec, fit_photo_fast(spec, reference.region, encoder, quality=quality)[0])
         if quality != "FAST":
             values = photo_values(spec, drain(iter_fit_photo(spec, reference.region, encoder, quality,
                                                              others=(values,))))

@@ -284,7 +284,7 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
                     read = neutral_photo(reference, light_of(*region))
                     region = (read, region[1])
                     encoder = {k: v for k, v in session.predict(read)[0].items() if k in spec.modelled}
-                fast = fit_photo_fast(spec, region, encoder, polish=amount == "FAST")[0]  # Better's start: unpolished
+                fast = fit_photo_fast(spec, region, encoder, quality=amount)[0]
                 estimates[name] = spec.full_values(fast if amount == "FAST" else drain(iter_fit_photo(
                     spec, region, encoder, amount, settings.res, settings.samples, others=(fast,))))
                 ms[name] = ms["encoder"] + 1000 * (time.perf_counter() - started)

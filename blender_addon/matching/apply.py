@@ -183,8 +183,7 @@ def iter_compute(prepared: dict):
     spec, reference = prepared["spec"], prepared["reference"]
     values = encoder = estimate(prepared["session"], spec, reference.image)
     if reference.region is not None:
-        values, note = yield from iter_fit_photo_fast(spec, reference.region, values,
-                                                      polish=prepared["quality"] == "FAST")
+        values, note = yield from iter_fit_photo_fast(spec, reference.region, values, quality=prepared["quality"])
         reference.notes += [note] if note else []
     values = photo_values(spec, values)
     if prepared["quality"] != "FAST":

@@ -162,7 +162,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
                            "read_from": prepared.light.read_from}
     encoder = {k: values[k] for k in spec.modelled}  # Better and Best's candidate starts: it and Fast's
     if source is None and prepared.region is not None:  # a photo: Fast (hair: its colour, through the colour imitator)
-        fast, note = fit_photo_fast(spec, prepared.region, encoder, polish=quality == "FAST")  # Better: unpolished
+        fast, note = fit_photo_fast(spec, prepared.region, encoder, quality=quality)
         result["notes"] = prepared.notes + ([note] if note else [])
         result["params"] = values = spec.full_values(photo_values(spec, fast))
         result["fast_ms"] = 1000 * (time.perf_counter() - started)  # the encoder (and, for hair, the colour fit)

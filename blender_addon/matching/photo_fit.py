@@ -270,16 +270,16 @@ def colour_imitator_path(renderer: str) -> Path:
 
 
 def iter_fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
-                        imitator_path: Path | None = None, polish: bool = True):
+                        imitator_path: Path | None = None, quality: str = "FAST"):
     """Fast: the encoder's estimate `start` (modelled raw values) as it is where FAST_FITS says the colour fit does
     not pay, else fit_colour's, its mean colour then polished on the real stage (iter_polish_colour, FAST_POLISH
-    renders; nothing of them left in the .blend) unless `polish` is False (Better and Best start from the fit
-    unpolished). A generator: yields the polish's renders made so far (the panel runs them between redraws), returns
-    the values and a note for the user ("" when none)."""
+    renders; nothing of them left in the .blend) where `quality`, the Match's, is FAST (Better and Best start from the
+    fit unpolished: their figures were measured from it). A generator: yields the polish's renders made so far (the
+    panel runs them between redraws), returns the values and a note for the user ("" when none)."""
     if not FAST_FITS[spec.renderer]:
         return dict(start), ""
     fitted, note = fit_colour(spec, region, start, imitator_path)
-    if note or not polish or not FAST_POLISH[spec.renderer]:
+    if note or quality != "FAST" or not FAST_POLISH[spec.renderer]:
         return fitted, note
     from ..scratch import scratch_data
 
@@ -288,11 +288,11 @@ def iter_fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray
 
 
 def fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
-                   imitator_path: Path | None = None, polish: bool = True) -> tuple[dict[str, float], str]:
+                   imitator_path: Path | None = None, quality: str = "FAST") -> tuple[dict[str, float], str]:
     """iter_fit_photo_fast run to its end: (values, note)."""
     from .refine import drain
 
-    return drain(iter_fit_photo_fast(spec, region, start, imitator_path, polish))
+    return drain(iter_fit_photo_fast(spec, region, start, imitator_path, quality))
 
 
 def fit_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],

@@ -224,8 +224,12 @@ def another_thread_renders() -> bool:
     import sys
     import threading
 
-    if any(bpy.app.is_job_running(kind) for kind in BLENDER_JOBS):
-        return True
+    for kind in BLENDER_JOBS:
+        try:
+            if bpy.app.is_job_running(kind):
+                return True
+        except ValueError:  # a job type this Blender does not have
+            continue
     here = threading.get_ident()
     for ident, frame in sys._current_frames().items():
         while ident != here and frame is not None:

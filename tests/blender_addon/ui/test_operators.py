@@ -863,15 +863,18 @@ def test_refinement_checks_for_other_renders_before_every_step(monkeypatch):
     assert state == {"RUNNING_MODAL"} and taken == [0, 1]
 
 
-def test_blender_jobs_waited_for_are_ones_blender_knows():
-    """Each job type the modal Match waits for is one bpy.app.is_job_running accepts (a misspelt one raises), and in
-    the background none runs."""
+def test_blender_jobs_waited_for_are_ones_blender_knows(monkeypatch):
+    """Each job type the modal Match waits for is one bpy.app.is_job_running accepts (a misspelt one raises), in the
+    background none runs, and a type a later Blender drops is passed over."""
     import bpy
 
+    from blender_addon.ui import operators
     from blender_addon.ui.operators import BLENDER_JOBS, another_thread_renders
 
     assert {"RENDER_PREVIEW", "RENDER"} <= set(BLENDER_JOBS)
     assert not any(bpy.app.is_job_running(kind) for kind in BLENDER_JOBS) and not another_thread_renders()
+    monkeypatch.setattr(operators, "BLENDER_JOBS", ("RENDER_PREVIEW", "A_JOB_OF_BLENDER_6"))  # one it does not have
+    assert not another_thread_renders()
     with pytest.raises(ValueError, match="not found"):
         bpy.app.is_job_running("RENDER_PREVIEWS")
 
