@@ -426,8 +426,11 @@ class HeadFrame:
         (top, bottom), (left, right) = (on_grid((np.arange(size * fine) + 0.5) / fine, size, span)
                                         for size, span in ((self.rows, row_span), (self.cols, col_span)))
         rows, cols = bottom - top, right - left  # the fine grid's part that can hold hair, from (top, left)
-        hair = (linear_resize(score, (np.arange(top, bottom) + 0.5) / fine,
-                              (np.arange(left, right) + 0.5) / fine) > 0.5).ravel()
+        # bordered by no hair: a photo pixel beyond the part, its indices clipped to the border, reads no hair there
+        hair = np.zeros((rows + 2, cols + 2), bool)
+        hair[1:-1, 1:-1] = linear_resize(score, (np.arange(top, bottom) + 0.5) / fine,
+                                         (np.arange(left, right) + 0.5) / fine) > 0.5
+        hair, start = hair.ravel(), (top - 1) * (cols + 2) + (left - 1)  # the border's first cell, on the fine grid
         # The fine grid's col and row are affine in the photo's x and y: each a x + b y + c.
         origin = self.to_work(np.zeros(2)) * fine
         (col_x, row_x), (col_y, row_y) = (self.to_work(np.eye(2)) * fine - origin).astype(np.float32)
@@ -440,10 +443,14 @@ class HeadFrame:
         xs = (np.arange(x_low, max(x_high, x_low)) + 0.5).astype(np.float32)
         for band in range(y_low, y_high, TO_IMAGE_ROWS):
             ys = (np.arange(band, min(band + TO_IMAGE_ROWS, y_high)) + 0.5).astype(np.float32)[:, None]
-            col = np.floor(col_x * xs + (col_y * ys + col_0)).astype(np.intp) - left  # from the part's corner
-            row = np.floor(row_x * xs + (row_y * ys + row_0)).astype(np.intp) - top
-            within = (col >= 0) & (col < cols) & (row >= 0) & (row < rows)
-            mask[band:band + len(ys), x_low:x_low + len(xs)] = hair[np.where(within, row * cols + col, 0)] & within
+            col = np.floor(col_x * xs + (col_y * ys + col_0)).astype(np.int32)  # on the fine grid
+            row = np.floor(row_x * xs + (row_y * ys + row_0)).astype(np.int32)
+            np.clip(col, left - 1, right, out=col)
+            np.clip(row, top - 1, bottom, out=row)
+            row *= cols + 2  # (in place: the bands are a megapixel's size)
+            row += col
+            row -= start
+            mask[band:band + len(ys), x_low:x_low + len(xs)] = hair[row]
         return mask
 
 
