@@ -10,9 +10,9 @@ from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, PointerPr
 QUALITY_ITEMS = [
     ("FAST", "Fast", "The encoder's estimate of the photo with its light taken out (milliseconds, no render); for "
                      "hair, fitted to the hair's colour through the colour imitator, then checked and corrected on "
-                     "three passes of the hair stage (a fraction of a second; the first in a session, a few seconds)"),
+                     "three passes of the hair stage (under a second)"),
     ("BETTER", "Better", "The estimate fitted through the renderer to the colour of the photo's lips or hair (a "
-                         "few seconds for lips, about one for hair)"),
+                         "few seconds)"),
     ("BEST", "Best", "As Better, on more default scenes with more renders (several seconds)"),
 ]
 
