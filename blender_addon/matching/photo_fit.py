@@ -47,8 +47,8 @@ FIT_QUALITY = {"lipstick": {"BETTER": (1, 25), "BEST": (2, 100)}, "hair": {"BETT
 # (seconds, seconds the first time in a session) each takes on a 2-core CPU, what the panel tells the artist:
 # benchmarks/results/photo_sources.md and real_window.md, rounded up. Lips: fitted in the photo's own scene
 # (photo_scene_fit: 25 renders at 64 px, 100 at 96 px); hair's regions are shipped (FIT_REGIONS), no render.
-# Hair Fast: its polish's 3 stage passes, a pass per timer tick in the panel (0.39 s the first click in the real
-# window, 0.42 s the next; `vto match` on the astronaut: 1.1 s, its process's first, with the imitator's loading).
+# Hair Fast: its polish's 3 stage passes, a pass per timer tick in the panel (0.38-0.42 s a click in the real window,
+# 1.3 s once after an undo; `vto match` on the astronaut: 1.1 s, its process's first, with the imitator).
 FIT_SECONDS = {"lipstick": {"BETTER": (3, 11), "BEST": (12, 18)},
                "hair": {"FAST": (0.3, 1), "BETTER": (2, 6), "BEST": (6, 10)}}
 FIT_RES = 64
