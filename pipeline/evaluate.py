@@ -380,7 +380,8 @@ def summarise(spec: RendererSpec, rows: list[dict], methods: list[str]) -> dict:
 
 def colour_errors(spec: RendererSpec, rows: list[dict], method: str) -> dict | None:
     """The median |error| of a method's makeup colour in 8-bit steps, red, green and blue pooled, over all looks and
-    over those whose true opacity is >= OPAQUE (where the colour shows); None for a spec that does not model all four."""
+    over those whose true opacity is >= OPAQUE (where the colour shows); None for a spec that does not model all
+    four."""
     if not {"opacity", *COLOUR} <= set(spec.modelled):
         return None
 
