@@ -342,7 +342,8 @@ def polygon_mask(polygon: np.ndarray, x0: int, y0: int, width: int, height: int)
     edge, row = np.nonzero(straddles)
     counts = np.zeros((height, width + 1), np.int32)
     np.add.at(counts, (row, 0), 1)
-    np.add.at(counts, (row, np.searchsorted(xs, cross_x[edge, row], side="left")), -1)
+    crossing = cross_x[edge, row]
+    np.add.at(counts, (row, np.where(np.isnan(crossing), 0, np.searchsorted(xs, crossing, side="left"))), -1)
     return np.cumsum(counts[:, :width], axis=1) % 2 == 1
 
 

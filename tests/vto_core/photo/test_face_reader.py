@@ -91,6 +91,29 @@ def test_polygon_mask_even_odd_on_pixel_centres():
     assert fr.polygon_mask(square, 10, 10, 3, 3).sum() == 0
 
 
+def test_polygon_mask_counts_crossings_as_every_edge_at_every_pixel_would():
+    """The mask from each row's crossings equals the even-odd rule tried at every pixel with every edge: random
+    polygons (self-crossing ones too), vertices on pixel centres, a box beyond the polygon, a NaN vertex."""
+    def every_pixel(polygon, x0, y0, width, height):
+        start, end = polygon.astype(np.float64), np.roll(polygon, -1, axis=0).astype(np.float64)
+        ys, xs = y0 + np.arange(height) + 0.5, x0 + np.arange(width) + 0.5
+        straddles = (start[:, 1:2] > ys) != (end[:, 1:2] > ys)
+        rise = np.where(end[:, 1:2] != start[:, 1:2], end[:, 1:2] - start[:, 1:2], 1.0)
+        cross_x = start[:, 0:1] + (ys - start[:, 1:2]) * (end[:, 0:1] - start[:, 0:1]) / rise
+        return (straddles[:, :, None] & (xs < cross_x[:, :, None])).sum(axis=0) % 2 == 1
+
+    rng = np.random.default_rng(3)
+    for trial in range(120):
+        k = int(rng.integers(3, 30))
+        polygon = rng.uniform(-8, 40, (k, 2))
+        if trial % 3 == 0:
+            polygon = np.round(polygon) + 0.5  # vertices on pixel centres and rows
+        if trial % 7 == 0:
+            polygon[1, 0] = np.nan
+        box = (int(rng.integers(-5, 10)), int(rng.integers(-5, 10)), int(rng.integers(1, 40)), int(rng.integers(1, 40)))
+        assert np.array_equal(fr.polygon_mask(polygon, *box), every_pixel(polygon, *box)), trial
+
+
 def test_clean_reads_bad_values_as_the_bounds():
     values = np.array([np.nan, -np.inf, np.inf, -2.0, 0.25, 7.0, 1e300])
     assert fr.clean(values).tolist() == [0.0, 0.0, 1.0, 0.0, 0.25, 1.0, 1.0] and fr.clean(values).dtype == np.float32
