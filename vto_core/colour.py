@@ -25,7 +25,7 @@ def _require_rgb_last_axis(values, name):
         raise VtoError(f"{name} must have shape (..., 3), got {values.shape}")
 
 
-def _srgb_to_linear64(srgb):
+def _srgb_to_linear(srgb):
     """(...) float64 (or float32, computed in it) -> the same, IEC 61966-2-1 decoding with negatives sent to 0."""
     # The power branch is evaluated everywhere by np.where, so keep its base non-negative.
     power_base = np.maximum((srgb + 0.055) / 1.055, 0.0)
@@ -82,7 +82,7 @@ def _hsv_to_rgb64(hsv):
 
 def srgb_to_linear(srgb):
     """srgb: (...) float -> (...) float32 linear; negatives -> 0, values > 1 follow the power law."""
-    return _to_float32(_srgb_to_linear64(_as_float64(srgb)))
+    return _to_float32(_srgb_to_linear(_as_float64(srgb)))
 
 
 def linear_to_srgb(linear):
@@ -169,7 +169,7 @@ def srgb_to_lab(srgb, fast: bool = False):
 
 def _srgb_to_lab(srgb, dtype):
     """(..., 3) finite display values of `dtype` -> (..., 3) CIELAB of `dtype`, computed in it."""
-    xyz = _srgb_to_linear64(srgb) @ _SRGB_TO_XYZ.T.astype(dtype) / _D65_WHITE.astype(dtype)
+    xyz = _srgb_to_linear(srgb) @ _SRGB_TO_XYZ.T.astype(dtype) / _D65_WHITE.astype(dtype)
     epsilon, kappa = dtype(216 / 24389), dtype(24389 / 27)
     f = np.where(xyz > epsilon, np.cbrt(xyz), (kappa * xyz + 16) / 116)
     return np.stack([116 * f[..., 1] - 16, 500 * (f[..., 0] - f[..., 1]), 200 * (f[..., 1] - f[..., 2])], -1)

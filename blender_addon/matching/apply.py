@@ -39,8 +39,8 @@ from vto_core.specs import RendererSpec, get_spec
 
 from ..compat import uses_nodes
 from ..shipped import MODELS
-from .photo_fit import (FAST_FITS, FAST_POLISH, FIT_QUALITY, NO_REGION, QUALITIES, iter_fit_photo,
-                        iter_fit_photo_fast, photo_values)
+from .photo_fit import (FIT_QUALITY, NO_REGION, QUALITIES, fast_polish_passes, iter_fit_photo, iter_fit_photo_fast,
+                        photo_values)
 from .reference import absolute_path, read_reference
 from .refine import drain
 
@@ -163,13 +163,12 @@ def prepare(renderer: str, settings: dict) -> dict:
     reference = read_reference(renderer, settings)
     if quality != "FAST" and reference.region is None:
         raise VtoError(f"quality {quality.title()} {NO_REGION}")
+    if quality != "FAST":
+        budget = FIT_QUALITY[renderer][quality][1]
+    else:  # Fast's polish passes, where there is a region to fit
+        budget = fast_polish_passes(renderer) if reference.region is not None else 0
     return {"session": session, "spec": spec, "model": str(model), "reference": reference, "quality": quality,
-            "budget": FIT_QUALITY[renderer][quality][1] if quality != "FAST" else polish_renders(spec, reference)}
-
-
-def polish_renders(spec, reference) -> int:
-    """The renders Fast's polish takes on this reference (photo_fit.FAST_POLISH; none without a region or a fit)."""
-    return FAST_POLISH[spec.renderer] if reference.region is not None and FAST_FITS[spec.renderer] else 0
+            "budget": budget}
 
 
 def iter_compute(prepared: dict):

@@ -269,6 +269,11 @@ def colour_imitator_path(renderer: str) -> Path:
     return MODELS / f"{renderer}_colour.onnx"
 
 
+def fast_polish_passes(renderer: str) -> int:
+    """The stage passes Fast's polish takes for `renderer` (FAST_POLISH; none where Fast does not fit, FAST_FITS)."""
+    return FAST_POLISH[renderer] if FAST_FITS[renderer] else 0
+
+
 def iter_fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
                         imitator_path: Path | None = None, quality: str = "FAST"):
     """Fast: the encoder's estimate `start` (modelled raw values) as it is where FAST_FITS says the colour fit does
@@ -279,7 +284,7 @@ def iter_fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray
     if not FAST_FITS[spec.renderer]:
         return dict(start), ""
     fitted, note = fit_colour(spec, region, start, imitator_path)
-    if note or quality != "FAST" or not FAST_POLISH[spec.renderer]:
+    if note or quality != "FAST" or not fast_polish_passes(spec.renderer):
         return fitted, note
     from ..scratch import scratch_data
 

@@ -12,7 +12,7 @@ from vto_core.specs import get_spec
 
 from ..matching import apply
 from . import preview, thumbnail, warmup
-from ..matching.photo_fit import FAST_POLISH, FIT_QUALITY, FIT_SECONDS, NOT_OFFERED, OFFERED
+from ..matching.photo_fit import FIT_QUALITY, FIT_SECONDS, NOT_OFFERED, OFFERED, fast_polish_passes
 from .operators import (VTO_OT_add_hair_compositor, VTO_OT_add_lipstick_material, VTO_OT_match_from_photo,
                         VTO_OT_preview_on_photo)
 from .preferences import preference_model
@@ -70,13 +70,14 @@ def draw_quality(column, props, renderer: str) -> None:
 
 
 def quality_cost(renderer: str, quality: str) -> str:
-    """'Fast: no render, milliseconds', 'Fast: 3 stage passes, 0.3-1 s' (FAST_POLISH) or 'Better: 25 renders, 4-17 s'
-    (FIT_QUALITY, FIT_SECONDS)."""
+    """'Fast: no render, milliseconds', 'Fast: 3 stage passes, 0.3-1 s' (fast_polish_passes) or 'Better: 25
+    renders, 4-17 s' (FIT_QUALITY, FIT_SECONDS)."""
     if quality == "FAST":
-        if not FAST_POLISH[renderer]:
+        passes = fast_polish_passes(renderer)
+        if not passes:
             return "Fast: no render, milliseconds"
         seconds, first = FIT_SECONDS[renderer][quality]
-        return f"Fast: {FAST_POLISH[renderer]} stage passes, {seconds:g}-{first:g} s"
+        return f"Fast: {passes} stage passes, {seconds:g}-{first:g} s"
     renders = FIT_QUALITY[renderer][quality][1]
     seconds, first = FIT_SECONDS[renderer][quality]
     return f"{quality.title()}: {renders} renders, {seconds:g}-{first:g} s"  # the longer: a session's first fit
