@@ -66,6 +66,10 @@ MIN_HAIR_SKIN_DISTANCE = 10.0  # CIELAB distance of the seed's median from the s
 # included: teal, lilac, violet) 0-25; a desert seen from orbit has 38-44, an orange suit 70, a red hat 60+. A seed or
 # a patch more vivid than this is not hair.
 MAX_HAIR_CHROMA = 35.0
+# The band above the forehead, over hair, spans an L* interquartile range of 1-20 on the 18 portraits, tilted -45..45
+# and upside down too (hair in light and shade); over Grace Hopper's cap, its black band and white crown, 66-73. A band
+# spread wider than this is a hat of two colours (a seed beside the face may still show hair under it).
+MAX_TOP_LIGHTNESS_SPREAD = 40.0
 # A picture with no face is a patch of hair when it is not blank (std of its grey over BLANK_STD), not noise (the grey
 # of neighbouring pixels correlates at least MIN_NEIGHBOUR_CORRELATION: hair patches 0.64-0.99, white noise 0.01) and
 # its median is a hair colour.
@@ -199,10 +203,13 @@ OUT_OF_FRAME = ("no hair found: the top of the head is out of frame or not part 
                 "beside the face")
 
 
-def seed_problem(lab: np.ndarray, area: float, models: dict[str, Gaussian]) -> str:
-    """'' when a seed's pixels (N, 3) CIELAB show hair, else why not ('no hair found: ...')."""
+def seed_problem(lab: np.ndarray, area: float, models: dict[str, Gaussian], top: bool = False) -> str:
+    """'' when a seed's pixels (N, 3) CIELAB show hair, else why not ('no hair found: ...'); `top`: the seed is the
+    band above the forehead, where a hat sits."""
     if len(lab) < max(MIN_SEED_SHARE * area, 8):
         return OUT_OF_FRAME
+    if top and np.subtract(*np.percentile(lab[:, 0], [75, 25])) > MAX_TOP_LIGHTNESS_SPREAD:
+        return "no hair found: what covers the head is of two colours far apart, not hair (a hat?)"
     median = np.median(lab, axis=0)
     if "skin" in models and np.linalg.norm(median - models["skin"].mean) < MIN_HAIR_SKIN_DISTANCE:
         return "no hair found: the head around the face is the colour of the skin (bald?)"
@@ -219,7 +226,7 @@ def hair_seeds(lab: np.ndarray, seeds: list[Seed], models: dict[str, Gaussian], 
     else on all the seeds that show hair. VtoError (the first seed's problem that is not the frame's, else the
     frame's) where none shows hair. others: others_likelihood(lab, models) (None: computed); inside: the work
     pixels in the photo (None: all)."""
-    problems = {seed.name: seed_problem(lab[seed.where], seed.area, models) for seed in seeds}
+    problems = {seed.name: seed_problem(lab[seed.where], seed.area, models, seed.name == "top") for seed in seeds}
     shown = [seed for seed in seeds if not problems[seed.name]]
     if not shown:
         raise VtoError(next((p for p in problems.values() if p != OUT_OF_FRAME), OUT_OF_FRAME))
