@@ -210,6 +210,15 @@ def test_every_seed_that_shows_hair_grows_and_one_of_another_colour_does_not():
         hl.hair_seeds(lab, [hl.Seed(seed.name, seed.where, 1000) for seed in seeds], models)  # too little in frame
 
 
+@pytest.mark.parametrize("dark, light, hat", [(10, 80, True), (30, 60, False), (5, 5, False)])
+def test_a_band_above_the_forehead_of_two_lightnesses_far_apart_is_a_hat(dark, light, hat):
+    lab = np.zeros((100, 3))
+    lab[:50, 0], lab[50:, 0] = dark, light  # half a cap's black band, half its crown (or hair in shade and light)
+    said = hl.seed_problem(lab, 100, {}, top=True)
+    assert ("two colours far apart" in said) == hat
+    assert hl.seed_problem(lab, 100, {}) == ""  # beside the face, hair and the backdrop mix: no such test
+
+
 def test_helpers():
     seed = np.zeros((5, 5), bool)
     seed[0, 0] = True
