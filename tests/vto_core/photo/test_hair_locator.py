@@ -112,14 +112,15 @@ def test_hair_starts_only_where_the_crop_alone_shows_the_person(reader, locator)
                                   "bald crop", "hat crop"])
 def test_a_head_without_hair_is_refused_in_one_line(reader, locator, astronaut, astronaut_hair, case):
     image = astronaut.copy()
+    skin = astronaut[130:150, 200:250].reshape(-1, 3).mean(0)
     if case.startswith("bald"):
-        image[astronaut_hair] = astronaut[130:150, 200:250].reshape(-1, 3).mean(0)
+        image[astronaut_hair] = skin
     elif case == "hat of two colours":  # a cap, each part a hair colour: a black band, a white crown; no hair below
         forehead, chin = reader.read(astronaut).landmarks[[hl.FOREHEAD, hl.CHIN], 1]
         rows = np.arange(512)[:, None]
         band = rows >= forehead - 0.29 * (chin - forehead)  # up to the middle of the band where hair is looked for
         image[astronaut_hair & ~band], image[astronaut_hair & band] = 0.92, 0.06
-        image[astronaut_hair & (rows >= forehead)] = astronaut[130:150, 200:250].reshape(-1, 3).mean(0)
+        image[astronaut_hair & (rows >= forehead)] = skin
     elif case.startswith("hat"):
         image[astronaut_hair] = (0.75, 0.1, 0.1)
     elif case == "out of frame":
