@@ -17,7 +17,7 @@ from vto_core.hair import (CURVE_TABLE_POINTS, LUT_POINTS, MAX_LUT_SLOPE, apply_
 from vto_core.histogram import HistogramMatch, apply_lut, fit_histogram_match, match_lut
 from vto_core.metrics import block_means
 from vto_core.presets import load_presets
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 from vto_core.visibility import VISIBLE_RATIO, measurement_look, parameter_visibility
 
 SOURCES = (0, 1, 2, 3, 4, 5)

@@ -91,7 +91,7 @@ def run_renders(looks: int, qualities: list[str], work: Path) -> tuple[list, dic
     from vto_core.photo.photo_light import kelvin_gains, relit
     from vto_core.presets import load_presets, preset_matrix
     from vto_core.sampling import ParamSampler
-    from vto_core.specs import get_spec
+    from vto_core.products import get_spec
 
     spec = get_spec("lipstick")
     sampler = ParamSampler(spec, preset_matrix(spec, load_presets("lipstick")), 0.5, 31)

@@ -29,7 +29,7 @@ def run(model: str, n: int, seed: int) -> str:
     from blender_addon.renderers.scene_lips import lips_mask
     from vto_core.imageio import resize, write_image
     from vto_core.inference import EncoderSession
-    from vto_core.specs import get_spec
+    from vto_core.products import get_spec
 
     spec, session = get_spec("lipstick"), EncoderSession(model)
     size = session.input_size[0]

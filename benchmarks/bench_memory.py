@@ -48,7 +48,7 @@ assert bpy.ops.vto.add_lipstick_material() == {"FINISHED"}
 material = obj.active_material
 material.vto_match.image_path = sys.argv[1]
 settings = {"image_path": sys.argv[1], "model_path": "", "crop": None, "mask_path": "", "quality": "FAST",
-            "find_lips": True, "find_hair": True, "neutral_light": True}
+            "find_region": True, "neutral_light": True}
 match_into_material(material.name, settings)
 icon, note = preview.refresh(material)
 assert note == "" and preview.picture(material) is not None, note

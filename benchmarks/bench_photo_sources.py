@@ -122,7 +122,7 @@ def roundtrip(models: dict[str, Path], qualities: list[str], faces: int, product
     from blender_addon.renderers.tryon import tryon_lipstick
     from vto_core.imageio import read_image, write_image
     from vto_core.presets import load_presets
-    from vto_core.specs import get_spec
+    from vto_core.products import get_spec
 
     spec = get_spec("lipstick")
     presets = load_presets("lipstick")
@@ -253,7 +253,7 @@ def sweep(models: dict[str, Path], work: Path, renders: Renders) -> str:
     from vto_core.imageio import read_image, write_image
     from vto_core.inference import EncoderSession
     from vto_core.presets import load_presets
-    from vto_core.specs import get_spec
+    from vto_core.products import get_spec
 
     spec = get_spec("lipstick")
     presets = load_presets("lipstick")

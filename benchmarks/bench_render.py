@@ -22,7 +22,7 @@ from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.metrics import psnr
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 from vto_core.visibility import measurement_look, parameter_visibility
 
 SIZES = (64, 128, 256)

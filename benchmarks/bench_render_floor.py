@@ -130,7 +130,7 @@ def run(n: int, seed: int, settings: list[tuple[int, int]], seeds: int, model: s
     """The section, as markdown."""
     from vto_core.presets import load_presets, preset_matrix
     from vto_core.sampling import ParamSampler
-    from vto_core.specs import get_spec
+    from vto_core.products import get_spec
 
     spec = get_spec("lipstick")
     sampler = ParamSampler(spec, preset_matrix(spec, load_presets("lipstick")), 0.5, seed)

@@ -28,7 +28,7 @@ from training.run import RunFolder
 from training.train_encoder import encoder_losses, train_encoder
 from training.train_imitator import imitator_losses, train_imitator
 from vto_core.inference import EncoderSession
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 
 SPEC = get_spec("lipstick", "opacity,red,green,blue,gloss,gloss_roughness,reflection")  # paper Table 2
 

@@ -24,7 +24,7 @@ def main() -> None:
     from blender_addon.renderers.lipstick import render_lipstick
     from blender_addon.renderers.scene_lips import DEFAULT_LIGHTING, lips_mask
     from vto_core.dataset import DEFAULT_SAMPLES
-    from vto_core.specs import get_spec
+    from vto_core.products import get_spec
     from vto_core.visibility import measurement_look, step_visibility
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

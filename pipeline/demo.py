@@ -26,6 +26,7 @@ from pathlib import Path
 
 from vto_core.cli import ArgumentParser
 from vto_core.errors import VtoError
+from vto_core.products import product_names
 
 from .demo_sizes import COMMON, SIZES, DemoSize
 
@@ -112,7 +113,7 @@ def _digest(path: Path | None) -> str | None:
 
 def run_demo(renderer: str, size_name: str, out: Path) -> Path:
     """Every stage in order (reusing finished ones); returns the report page."""
-    from vto_core.specs import get_spec
+    from vto_core.products import get_spec
 
     size: DemoSize = SIZES[size_name]
     params = size.params(renderer)
@@ -220,7 +221,7 @@ def cmd_demo(argv: list[str]) -> int:
     """vto demo [--renderer lipstick|hair] [--size smoke|small|full] --out DIR."""
     parser = ArgumentParser(prog="vto demo", description="the whole pipeline on the default scene: datasets, "
                                                          "imitator, encoder, ONNX export, evaluation, HTML report")
-    parser.add_argument("--renderer", choices=["lipstick", "hair"], default="lipstick")
+    parser.add_argument("--renderer", choices=product_names(), default=product_names()[0])
     parser.add_argument("--size", choices=list(SIZES), default="full",
                         help="full: about 18 minutes on 2 CPU cores; small: about 4; smoke: under 2 (CI)")
     parser.add_argument("--out", default="out/demo", help="working folder; a rerun reuses its finished stages")

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-# Smoke runs model fewer parameters, the ones a tiny encoder learns in a minute (colour, and what dims or lifts it).
-SMOKE_PARAMS = {"lipstick": "opacity,red,green,blue", "hair": "brightness,hue,saturation,intensity"}
+from vto_core.products import get_product
+
 # Settings both trainings share: SSIM+L1 stands in for VGG (CPU time), cosine lr (benchmarks/results/training.md).
 COMMON = ["perceptual=ssim_l1", "batch_size=16", "schedule=cosine", "val_fraction=0.1", "log_every=10",
           "checkpoint_every=100"]
@@ -34,11 +34,11 @@ class DemoSize:
     encoder: tuple[str, ...]
     eval_n: int
     refine: tuple[str, ...]
-    smoke_params: bool = False  # model SMOKE_PARAMS instead of the renderer's default spec
+    smoke_params: bool = False  # model the product's smoke_params (what a tiny encoder learns in a minute), not its spec
 
     def params(self, renderer: str) -> str | None:
         """The --params of the datasets: None for the default spec."""
-        return SMOKE_PARAMS[renderer] if self.smoke_params else None
+        return ",".join(get_product(renderer).smoke_params) if self.smoke_params else None
 
 
 SIZES = {

@@ -28,6 +28,7 @@ from vto_core.inference import EncoderSession
 from vto_core.metrics import mse, psnr, ssim
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler
+from vto_core.products import get_product
 from vto_core.specs import RendererSpec
 
 # Looks come from ParamSampler(seed=SEED_BASE + --seed): datasets use small seeds, so eval draws never repeat them.
@@ -35,8 +36,6 @@ SEED_BASE = 2**32
 # Sources of look i: A = SOURCE_BASE + 2i, B = SOURCE_BASE + 2i + 1 (datasets draw random 31-bit source seeds).
 SOURCE_BASE = 5000
 GLOSS_HIGH = 2.0  # lipstick "high gloss": above the glossy presets' typical amount
-DARK_LIPSTICK = 60.0  # max(R, G, B) below this (of 255) is a very dark shade
-DARK_HAIR = 0.05  # mean luma of the recoloured swatch below this: the presets Dark Brown (0.047) and darker
 EXTREME = 0.1  # a unit value below 0.1 or above 0.9 is at its range's extreme
 COLOUR = ("red", "green", "blue")  # lipstick: the makeup colour's parameters
 OPAQUE = 0.5  # lipstick: looks whose true opacity is at least this show their colour (issue 17's colour goal)
@@ -77,14 +76,11 @@ def raw_errors(spec: RendererSpec, truth: dict[str, float], estimate: dict[str, 
 
 
 def is_dark(renderer: str, values: dict[str, float]) -> bool:
-    """A very dark product: lipstick max(R, G, B) < 60 of 255; hair: recoloured swatch mean luma < 0.05."""
-    if renderer == "lipstick":
-        return max(values["red"], values["green"], values["blue"]) < DARK_LIPSTICK
-    from blender_addon.renderers.hair import load_swatch
-    from vto_core.colour import luminance
-    from vto_core.hair import swatch_target
+    """A very dark product (ProductRenderer.is_dark): lipstick max(R, G, B) < 60 of 255; hair: recoloured swatch
+    mean luma < 0.05."""
+    from blender_addon.renderers.products import blender_side
 
-    return float(luminance(swatch_target(load_swatch(), values)).mean()) < DARK_HAIR
+    return blender_side(renderer).is_dark(values)
 
 
 def buckets(spec: RendererSpec, values: dict[str, float], unit: np.ndarray) -> list[str]:
@@ -158,13 +154,9 @@ def methods(settings: EvalSettings) -> dict[str, tuple[str, int]]:
     return found
 
 
-def photo_region(renderer: str, on_a, reference: np.ndarray, source_a: int, settings: EvalSettings):
+def photo_region(on_a, reference: np.ndarray):
     """(reference, its region mask): what a photo fit reads of a reference on source A (the lips or the hair)."""
-    if renderer == "hair":
-        return reference, on_a.hair.mask
-    from blender_addon.renderers.scene_lips import lips_mask
-
-    return reference, lips_mask(source_a, settings.res, settings.lighting)
+    return reference, on_a.bound.mask
 
 
 def check_settings(settings: EvalSettings) -> None:
@@ -278,9 +270,9 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
                 found = refiner.refine(x, target, encoder_unit, amount)
                 spent_before = ms["encoder"]
             elif kind == "photo":  # as a photo goes through `vto match`: lips with the light read and taken out
-                region = photo_region(spec.renderer, on_a, reference, source_a, settings)
+                region = photo_region(on_a, reference)
                 encoder = {k: estimates["encoder"][k] for k in spec.modelled}
-                if spec.renderer == "lipstick":
+                if get_product(spec.renderer).face_region is not None:  # the light read from the skin beside it
                     read = neutral_photo(reference, light_of(*region))
                     region = (read, region[1])
                     encoder = {k: v for k, v in session.predict(read)[0].items() if k in spec.modelled}

@@ -1,4 +1,4 @@
-"""Render the hair regions the hair fits start from (photo_fit.FIT_SOURCES at FIT_RES, DEFAULT_SAMPLES) into
+"""Render the hair regions the hair fits start from (renderers.product_hair.FIT_SOURCES at FIT_RES, DEFAULT_SAMPLES) into
 blender_addon/data/hair_fit_regions.npz (run once on bpy 4.5; the file is committed, and
 tests/blender_addon/matching/test_photo_fit.py renders one again against it).
 
@@ -8,7 +8,7 @@ tests/blender_addon/matching/test_photo_fit.py renders one again against it).
 import bpy
 import numpy as np
 
-from blender_addon.matching.photo_fit import FIT_REGIONS, FIT_RES, FIT_SOURCES
+from blender_addon.renderers.product_hair import FIT_REGIONS, FIT_RES, FIT_SOURCES
 from blender_addon.renderers.hair import render_hair_source
 from blender_addon.shipped import DATA
 from vto_core.dataset import DEFAULT_SAMPLES

@@ -8,6 +8,7 @@ import torch
 
 from vto_core.dataset import DatasetReader, DatasetUnion, open_datasets
 from vto_core.errors import VtoError
+from vto_core.products import get_product
 from vto_core.specs import RendererSpec
 
 from .config import EncoderConfig, config_dict, data_record, with_epochs
@@ -89,7 +90,7 @@ def train_encoder(data: str | list[str], imitator_run: str | None, out: str, con
     reader = open_datasets(data)  # bad inputs fail before a run folder exists
     if config.loss in ("rendering", "both") and not imitator_run:
         raise VtoError("the rendering loss needs --imitator RUN (or --set loss=graphics)")
-    if config.mouth_views and reader.spec.renderer != "lipstick":
+    if config.mouth_views and not get_product(reader.spec.renderer).mouth_views:
         raise VtoError(f"mouth_views paints teeth over lips: a {reader.spec.renderer} dataset has none")
     with processes(config.device) as procs:
         return _train_encoder(reader, data, imitator_run, out, config, procs)

@@ -47,13 +47,15 @@ class ArgumentParser(argparse.ArgumentParser):
 
 def add_spec_args(parser: argparse.ArgumentParser) -> None:
     """The renderer and --params arguments every spec-using command shares."""
-    parser.add_argument("renderer", choices=["lipstick", "hair"])
+    from .products import product_names
+
+    parser.add_argument("renderer", choices=product_names())
     parser.add_argument("--params", default=None, help="comma-separated subset of parameters to model")
 
 
 def cmd_spec(argv: list[str]) -> int:
     """vto spec RENDERER [--params a,b]."""
-    from .specs import get_spec
+    from .products import get_spec
     from .visibility import below_bar
 
     parser = ArgumentParser(prog="vto spec", description=COMMANDS["spec"][2])
@@ -72,7 +74,7 @@ def cmd_sample(argv: list[str]) -> int:
     """vto sample RENDERER --n N --seed S [--params a,b] [--uniform-ratio R]."""
     from .presets import load_presets, preset_matrix
     from .sampling import ParamSampler
-    from .specs import get_spec
+    from .products import get_spec
 
     parser = ArgumentParser(prog="vto sample", description=COMMANDS["sample"][2])
     add_spec_args(parser)
@@ -95,8 +97,10 @@ def cmd_presets(argv: list[str]) -> int:
     """vto presets RENDERER."""
     from .presets import load_presets
 
+    from .products import product_names
+
     parser = ArgumentParser(prog="vto presets", description=COMMANDS["presets"][2])
-    parser.add_argument("renderer", choices=["lipstick", "hair"])
+    parser.add_argument("renderer", choices=product_names())
     args = parser.parse_args(argv)
     for name, values in load_presets(args.renderer).items():
         print(json.dumps({"name": name, "params": values}))

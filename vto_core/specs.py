@@ -263,7 +263,8 @@ GLOSS_UNIT_POWER = 0.8
 REFLECTION_UNIT_POWER = 0.85
 
 
-def _lipstick() -> RendererSpec:
+def lipstick_spec() -> RendererSpec:
+    """The VTO Lipstick group's inputs (paper Table 2 and the extended ones)."""
     main, ext = "main", "extended"
     p = ParamSpec
     return RendererSpec(
@@ -301,7 +302,8 @@ PHOTO_FIXED = ("a photo shows the colour, not how the stage was applied: a match
                "on all the hair), the artist changes it afterwards")
 
 
-def _hair() -> RendererSpec:
+def hair_spec() -> RendererSpec:
+    """The VTO Hair Color stage's settings (paper 4.2)."""
     from .hair import GLOBAL_CONTRAST_GAIN, LOCAL_CONTRAST_GAIN, LOCAL_RADIUS  # the tooltip quotes the stage's maths
 
     sw, non = "swatch", "non-swatch"
@@ -347,15 +349,3 @@ def _hair() -> RendererSpec:
                           f"radius {100 * LOCAL_RADIUS:g} % of the image width, which lifts the strands' highlights"),
         ),
     )
-
-
-RENDERERS = {"lipstick": _lipstick(), "hair": _hair()}
-
-
-def get_spec(renderer: str, params: str | list[str] | None = None) -> RendererSpec:
-    """The built-in spec of `renderer`, optionally with only `params` modelled."""
-    try:
-        spec = RENDERERS[renderer]
-    except KeyError:
-        raise VtoError(f"unknown renderer '{renderer}'; choose from {', '.join(RENDERERS)}") from None
-    return spec.select(params) if params else spec

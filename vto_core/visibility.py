@@ -7,31 +7,27 @@ from collections.abc import Callable
 import numpy as np
 
 from .metrics import block_means, visibility_ratio
+from .products import get_product
 from .specs import ParamSpec
 
 VISIBLE_RATIO = 3.0  # the change must stand this far above seed-to-seed noise (4x4 block means)
-# The look each parameter is measured on: the renderer's defaults, lipstick fully on; inputs that only act on a
-# layer get that layer (flakes for the sparkle inputs, a glossy coat, gloss at its 75th percentile, for its roughness).
-_LOOKS = {"lipstick": {"opacity": 1.0}, "hair": {}}
-# Modelled by default although below the bar (measured on the looks below, 64 px, default samples): the encoder
-# can still learn them from the whole lips or hair, but not every 4x4 block shows them. `vto spec` names them.
-BELOW_BAR = {
-    "lipstick": {},
-    "hair": {},
-}
+# The look each parameter is measured on: the product's look (lipstick fully on); inputs that only act on a layer get
+# that layer where the product has layers (flakes for the sparkle inputs, a glossy coat, gloss at its 75th percentile,
+# for its roughness). Parameters modelled although below the bar are the product's below_bar (`vto spec` names them).
 _CONTEXT = {"sparkle": {"sparkle_density": 0.5, "sparkle_intensity": 0.75}, "gloss_roughness": {"gloss": 2.0}}
 
 
 def below_bar(renderer: str) -> dict[str, str]:
     """The modelled parameters that stay under VISIBLE_RATIO, each with its measured ratio and why."""
     return {name: f"visibility {ratio:.2f} < {VISIBLE_RATIO:g}: {why}" for name, (ratio, why) in
-            BELOW_BAR.get(renderer, {}).items()}
+            get_product(renderer).below_bar.items()}
 
 
 def measurement_look(renderer: str, name: str) -> dict[str, float]:
     """The parameter values (besides `name`) a visibility measurement of `name` starts from."""
     context = next((values for prefix, values in _CONTEXT.items() if name.startswith(prefix)), {})
-    return {**_LOOKS[renderer], **(context if renderer == "lipstick" else {})}
+    product = get_product(renderer)
+    return {**product.look, **(context if product.layer_looks else {})}
 
 
 def quartile_values(param: ParamSpec) -> tuple[float, float]:

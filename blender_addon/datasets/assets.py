@@ -22,8 +22,6 @@ from ..renderers.nodes_lipstick import lipstick_material
 
 CATALOG_FILE = "blender_assets.cats.txt"
 CATALOG_PATH = "Match from photo/Lipstick"
-HAIR_SKIPPED = ("hair is a two-pass compositor stage fitted to each photo's own hair, not a material: its products "
-                "are in the presets (vto render hair --params preset:NAME@presets.json)")
 
 
 def catalog_id(path: str = CATALOG_PATH) -> str:

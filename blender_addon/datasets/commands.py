@@ -11,35 +11,31 @@ from vto_core.dataset import DEFAULT_RES, DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.imageio import write_image
 from vto_core.params_io import parse_params
-from vto_core.specs import get_spec
+from vto_core.products import PRODUCTS, get_product, get_spec, product_names
 
 
 def render(renderer: str, values: dict[str, float], source, res: int = 64, samples: int = DEFAULT_SAMPLES,
            seed: int = 0, lighting: str | None = None):
-    """R(X, g) for either renderer: (res, res, 3) display-sRGB float32; values are checked strictly.
+    """R(X, g) of product `renderer`: (res, res, 3) display-sRGB float32; values are checked strictly.
 
-    lighting: the default lips scene's, "wide" or "portrait" (None: the default); the hair scene has only its own.
+    lighting: the default scene's, "wide" or "portrait" (None: the default), where the product has lightings (lips);
+    the others have only their own.
     """
-    values = get_spec(renderer).check_values(values)
-    if renderer == "lipstick":
-        from ..renderers.lipstick import render_lipstick
+    from ..renderers.products import blender_side
 
-        if not (isinstance(source, int) or str(source).isdigit()):
-            raise VtoError(f"lipstick sources are seeds of the default lips scene (an integer), got '{source}'")
-        return render_lipstick(values, int(source), res, samples, seed, lighting=lighting)
-    if lighting is not None:
+    values = get_spec(renderer).check_values(values)
+    product = get_product(renderer)
+    if lighting is not None and not product.lightings:
         from ..renderers.lighting import ONLY_LIPS
 
         raise VtoError(ONLY_LIPS)
-    from ..renderers.hair import render_hair
-
-    return render_hair(values, source, res, samples, seed)
+    return blender_side(product).render(values, source, res, samples, seed, lighting)
 
 
 def cmd_render(argv: list[str]) -> int:
     """vto render RENDERER --params P --source S [--res 64] [--samples 16] [--seed 0] --out FILE."""
     parser = ArgumentParser(prog="vto render", description="render one image with a renderer R(X, g)")
-    parser.add_argument("renderer", choices=["lipstick", "hair"])
+    parser.add_argument("renderer", choices=product_names())
     parser.add_argument("--params", default=None, help="JSON object, a JSON file, or preset:NAME")
     parser.add_argument("--source", default="0", help="source seed, or (hair) a photo with <name>_mask beside it")
     parser.add_argument("--res", type=int, default=64)
@@ -57,24 +53,24 @@ def cmd_render(argv: list[str]) -> int:
     return 0
 
 
-def tryon_params(text: str) -> dict[str, float]:
-    """--params of `vto tryon`: what parse_params reads, or a lipstick preset's bare name ('Classic Red')."""
+def tryon_params(text: str, renderer: str) -> dict[str, float]:
+    """--params of `vto tryon`: what parse_params reads, or a preset's bare name ('Classic Red')."""
     from vto_core.presets import load_presets
 
-    presets = load_presets("lipstick")
+    presets = load_presets(renderer)
     if text in presets:
         return presets[text]
-    return parse_params(text, "lipstick")
+    return parse_params(text, renderer)
 
 
 def cmd_tryon(argv: list[str]) -> int:
-    """vto tryon lipstick --image PHOTO --params P --out OUT [--crop [N]] [--samples 16] [--seed 0]."""
+    """vto tryon PRODUCT --image PHOTO --params P --out OUT [--crop [N]] [--samples 16] [--seed 0]."""
     from vto_core.imageio import read_image
 
-    from ..renderers.tryon import tryon_lipstick
+    from ..renderers.products import blender_side
 
-    parser = ArgumentParser(prog="vto tryon", description="draw a lipstick onto the lips of a portrait")
-    parser.add_argument("renderer", choices=["lipstick"])
+    parser = ArgumentParser(prog="vto tryon", description="draw a product (a lipstick) onto a portrait")
+    parser.add_argument("renderer", choices=[p.name for p in PRODUCTS.values() if p.tryon])
     parser.add_argument("--image", required=True, help="a portrait (any format the add-on reads)")
     parser.add_argument("--params", required=True,
                         help="a preset's name, preset:NAME, a JSON object or file (vto match's output too)")
@@ -88,11 +84,11 @@ def cmd_tryon(argv: list[str]) -> int:
         raise VtoError(f"--crop must be in [16, 1024] px, got {args.crop}")
     if not 1 <= args.samples <= 65536:
         raise VtoError(f"--samples must be in [1, 65536], got {args.samples}")
-    values = get_spec("lipstick").check_values(tryon_params(args.params))
+    values = get_spec(args.renderer).check_values(tryon_params(args.params, args.renderer))
     if not os.path.isfile(args.image):
         raise VtoError(f"no image at {args.image}")
     photo, _ = read_image(args.image)
-    image = tryon_lipstick(photo, values, crop=args.crop, samples=args.samples, seed=args.seed, in_place=True)
+    image = blender_side(args.renderer).tryon(photo, values, crop=args.crop, samples=args.samples, seed=args.seed)
     write_image(args.out, image)
     print(json.dumps({"out": args.out, "image": args.image, "size": list(image.shape[1::-1]), "params": values}))
     return 0
@@ -132,7 +128,7 @@ def cmd_dataset(argv: list[str]) -> int:
     from .dataset import DatasetJob, prepare_output, run_in_process, run_workers, worker_indices
 
     parser = ArgumentParser(prog="vto dataset", description="render a training dataset (paper 5.2, 6.1)")
-    parser.add_argument("renderer", choices=["lipstick", "hair"])
+    parser.add_argument("renderer", choices=product_names())
     parser.add_argument("--out", required=True)
     parser.add_argument("--n", type=int, required=True, help="samples in the whole dataset (all shards)")
     parser.add_argument("--seed", type=int, default=0)
@@ -175,8 +171,9 @@ def cmd_dataset(argv: list[str]) -> int:
         from ..blendfile import open_blend
 
         open_blend(args.blend)
-    scene = _user_scene() if args.renderer == "lipstick" else None
-    if args.blend and args.renderer == "lipstick" and scene is None:
+    user_scenes = get_product(args.renderer).user_scenes
+    scene = _user_scene() if user_scenes else None
+    if args.blend and user_scenes and scene is None:
         raise VtoError(f"{args.blend}: no material of its active scene uses the 'VTO Lipstick' node group")
     params = args.params.split(",") if args.params else None
     if args.params == "auto":

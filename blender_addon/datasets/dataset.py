@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import time
@@ -18,10 +17,12 @@ from vto_core.dataset import (DEFAULT_RES, DEFAULT_SAMPLES, FORMAT_VERSION, Samp
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler
-from vto_core.specs import RendererSpec, get_spec
+from vto_core.products import Product, get_product, get_spec
+from vto_core.specs import RendererSpec
 
 from ..renderers.lipstick import linked_inputs, scene_values
 from ..renderers.cycles import sample_setting
+from ..renderers.products import blender_side
 
 _SOURCE_STREAM = 7
 _VARY_STREAM = 8
@@ -50,6 +51,11 @@ class DatasetJob:
     photos: str | None = None  # lipstick: try the looks on these portraits' lips (photo_looks) instead
     spec: RendererSpec = field(init=False)
 
+    @property
+    def product(self) -> Product:
+        """The declaration of the job's product."""
+        return get_product(self.renderer)
+
     def __post_init__(self):
         if self.n < 1:
             raise VtoError(f"--n must be at least 1, got {self.n}")
@@ -66,30 +72,31 @@ class DatasetJob:
         if self.source_folder is not None and not Path(self.source_folder).is_dir():
             raise VtoError(f"--source-folder {self.source_folder} is not a folder")
         self.spec = get_spec(self.renderer, self.params)
+        product = self.product
         self.vary = tuple(self.vary)
         for name in self.vary:
             param = self.spec.by_name.get(name)
             if param is None or name in self.spec.modelled or not np.isfinite(param.high):
                 raise VtoError(f"--vary takes unmodelled {self.renderer} inputs with a finite range, got '{name}'")
         if self.looks_per_source < 1 or (self.looks_per_source > 1 and (
-                self.renderer != "hair" or self.source_folder is not None)):
+                not product.shared_sources or self.source_folder is not None)):
             raise VtoError(f"--looks-per-source takes a count >= 1, above 1 for the default hair scene only, got "
                            f"{self.looks_per_source}")
-        if self.masks and (self.renderer != "lipstick" or self.scene is not None):
+        if self.masks and (not product.masks or self.scene is not None):
             raise VtoError("--masks writes the default lips scene's lips mask (hair datasets always have theirs)")
         if self.sensitivity and not self.source_images:
             raise VtoError("--sensitivity renders are for the imitator, which needs the source images: drop --no-source")
         if self.photos is not None:
             from .photo_looks import training_faces
 
-            if (self.renderer != "lipstick" or self.scene is not None or self.sensitivity or self.masks
+            if (not product.photo_datasets or self.scene is not None or self.sensitivity or self.masks
                     or self.lighting is not None):
                 raise VtoError("--photos tries lipstick looks on portraits in their own light: not with --blend, "
                                "--lighting, --sensitivity or --masks")
             if not Path(self.photos).is_dir():
                 raise VtoError(f"--photos {self.photos} is not a folder")
             training_faces(self.photos)  # refuses a folder with nothing to train on
-        if self.renderer == "lipstick" and self.scene is None:
+        if product.lightings and self.scene is None:
             from ..renderers.scene_lips import DEFAULT_LIGHTING
 
             self.lighting = self.lighting or DEFAULT_LIGHTING
@@ -168,11 +175,11 @@ class SampleRenderer:
             from .photo_looks import PhotoLooks
 
             self.photo_looks = PhotoLooks(job.photos, job.res, job.samples, job.seed)
-        if job.renderer == "hair" and job.source_folder:
+        if job.product.photo_is_own_source and job.source_folder:
             from ..renderers.hair import photo_sources
 
             self.photos = photo_sources(job.source_folder)
-        if job.renderer == "lipstick" and job.scene:
+        if job.product.user_scenes and job.scene:
             self.user_scene = bpy.data.scenes.get(job.scene)
             if self.user_scene is None:
                 raise VtoError(f"the open .blend has no scene '{job.scene}'")
@@ -199,10 +206,12 @@ class SampleRenderer:
         if self.photo_looks is not None:
             source_image, render, notes = self.photo_looks.look(index, values[0], job.source_images)
             images, extra = [render], {}
-        elif job.renderer == "lipstick":
-            source_image, images, extra = self._lipstick(source, cycles_seed, values)
         else:
-            source_image, images, extra = self._hair(source, cycles_seed, values)
+            cache = Path(job.out) / "source_cache" if job.looks_per_source > 1 else None
+            options = {"lighting": job.lighting, "scene": self.user_scene, "source_images": job.source_images,
+                       "masks": job.masks, "photos": self.photos, "cache": cache}
+            source_image, images, extra = blender_side(job.product).dataset_images(
+                values, source, job.res, job.samples, cycles_seed, options)
         writer = SampleWriter(Path(job.out), index)
         try:
             if job.source_images:
@@ -221,51 +230,7 @@ class SampleRenderer:
         except BaseException:
             writer.abort()
             raise
-        return len(images) + (source_image is not None and job.renderer == "lipstick")
-
-    def _lipstick(self, source: int, cycles_seed: int, values: list[dict]):
-        from ..renderers.lipstick import render_lipstick
-
-        job = self.job
-
-        def draw(v):
-            return render_lipstick(v, source, job.res, job.samples, cycles_seed, scene=self.user_scene,
-                                   lighting=job.lighting)
-
-        bare = draw({**values[0], "opacity": 0.0}) if job.source_images else None
-        extra = {}
-        if job.masks:
-            from ..renderers.scene_lips import lips_mask
-
-            extra["mask"] = lips_mask(source, job.res, job.lighting).astype(np.float32)
-        return bare, [draw(v) for v in values], extra
-
-    def _hair(self, source: int, cycles_seed: int, values: list[dict]):
-        from ..renderers.hair import load_photo_source, render_hair_source, run_hair_stage
-
-        job = self.job
-        if self.photos is not None:
-            hair_source = load_photo_source(self.photos[source % len(self.photos)], job.res)
-        elif job.looks_per_source > 1:
-            hair_source = self._cached_hair_source(source, cycles_seed)
-        else:
-            hair_source = render_hair_source(source, job.res, job.samples, cycles_seed)
-        return hair_source.rgb, [run_hair_stage(hair_source, v) for v in values], {"mask": hair_source.mask}
-
-    def _cached_hair_source(self, source: int, cycles_seed: int):
-        """The hair source of a group of looks: rendered once, kept in DIR/source_cache (written atomically)."""
-        from ..renderers.hair import HairSource, render_hair_source
-
-        path = Path(self.job.out) / "source_cache" / f"{source}.npz"
-        if path.is_file():
-            with np.load(path) as cached:
-                return HairSource(cached["rgb"], cached["mask"])
-        hair_source = render_hair_source(source, self.job.res, self.job.samples, cycles_seed)
-        path.parent.mkdir(exist_ok=True)
-        temporary = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npz")
-        np.savez(temporary, rgb=hair_source.rgb, mask=hair_source.mask)
-        os.replace(temporary, path)
-        return hair_source
+        return len(images) + (source_image is not None and job.product.renders_source)
 
 
 def prepare_output(job: DatasetJob) -> None:
@@ -292,7 +257,7 @@ def progress_bar(samples: int, renders_per_sample: int, quiet: bool = False):
 
 def renders_per_sample(job: DatasetJob) -> int:
     """R(X, .) renders each sample costs (lipstick also renders X, unless it is left out)."""
-    return 1 + (job.spec.size if job.sensitivity else 0) + (job.renderer == "lipstick" and job.source_images)
+    return 1 + (job.spec.size if job.sensitivity else 0) + (job.product.renders_source and job.source_images)
 
 
 def run_in_process(job: DatasetJob, indices, limit: int | None = None, quiet: bool = False) -> int:

@@ -11,10 +11,9 @@ all feed the same function:
     crop                        (x, y, w, h) from the top-left: pixels, or fractions when all four are <= 1; or None
     mask_path                   an image whose > 0.5 region is the lips (the reference is framed around it) or the
                                 hair (the encoder reads its largest square; Better and Best fit all of it)
-    find_lips                   lipstick, no mask: find the lips with the face locator (default True); False takes
-                                the image (or crop) as it is
-    find_hair                   hair, no crop or mask: find the hair around the largest face (default True); a
-                                picture with no face is read whole as a patch of hair; False takes it all as hair
+    find_region                 find the product's region (default True). Lips, no mask: with the face locator;
+                                hair, no crop or mask: around the largest face (a picture with no face is read whole
+                                as a patch of hair). False takes the image (or crop) as it is (all hair)
     neutral_light               read the photo's light from the skin beside the lips and take it out (default
                                 True; blender_addon.matching.reference)
     model_path                  the encoder; "" = the add-on preferences' path, else the shipped default
@@ -33,14 +32,13 @@ from pathlib import Path
 import numpy as np
 
 from vto_core.errors import VtoError
-from vto_core.hair import PHOTO_HAIR
 from vto_core.inference import EncoderSession, cached_session
-from vto_core.specs import RendererSpec, get_spec
+from vto_core.products import PRODUCTS, Product, get_product, get_spec
+from vto_core.specs import RendererSpec
 
-from ..compat import uses_nodes
+from ..renderers.products import blender_side
 from ..shipped import MODELS
-from .photo_fit import (FIT_QUALITY, NO_REGION, QUALITIES, fast_polish_passes, iter_fit_photo, iter_fit_photo_fast,
-                        photo_values)
+from .photo_fit import NO_REGION, QUALITIES, fast_polish_passes, iter_fit_photo, iter_fit_photo_fast, photo_values
 from .reference import absolute_path, read_reference
 from .refine import drain
 
@@ -86,32 +84,24 @@ def load_model(renderer: str, model_path) -> tuple[EncoderSession, RendererSpec]
 
 # --- the targets --------------------------------------------------------------------------------------------------
 
-def lipstick_nodes(material) -> list:
-    """The "VTO Lipstick" group nodes of `material` (none when it has no node tree)."""
-    from ..renderers.nodes_lipstick import GROUP_NAME
-
-    if material is None or not uses_nodes(material) or material.node_tree is None:
-        return []
-    return [n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeGroup" and n.node_tree is not None
-            and n.node_tree.name.startswith(GROUP_NAME)]
+def group_nodes(product: Product, target) -> list:
+    """The product's group nodes in `target`: a material (a material product) or a scene (a compositor stage)."""
+    return blender_side(product).nodes(target)
 
 
-def hair_nodes(scene) -> list:
-    """The "VTO Hair Swatch" / "VTO Hair Color" group nodes of `scene`'s compositor."""
-    from ..compat import compositor_tree
-    from ..renderers.nodes_hair import COLOR_GROUP, SWATCH_GROUP
+def material_product(material) -> Product | None:
+    """The first material product whose group `material` uses (None: none does)."""
+    return next((p for p in PRODUCTS.values() if p.is_material and group_nodes(p, material)), None)
 
-    tree = compositor_tree(scene)
-    if tree is None:
-        return []
-    return [n for n in tree.nodes if n.bl_idname == "CompositorNodeGroup" and n.node_tree is not None
-            and n.node_tree.name.startswith((SWATCH_GROUP, COLOR_GROUP))]
+
+def compositor_product() -> Product:
+    """The compositor stage product (hair colour): the Compositor's panel and `match_into_hair` write into it."""
+    return next(p for p in PRODUCTS.values() if not p.is_material)
 
 
 def written_params(spec: RendererSpec) -> list:
-    """The parameters a match writes: the modelled ones, and for hair what a photo fixes (vto_core.hair.PHOTO_HAIR)."""
-    names = list(spec.modelled) + [n for n in PHOTO_HAIR if spec.renderer == "hair" and n not in spec.modelled]
-    return [spec.by_name[name] for name in names]
+    """The parameters a match writes: the modelled ones, and what a photo fixes (the product's photo_fixes)."""
+    return [spec.by_name[name] for name in get_product(spec.renderer).written(spec)]
 
 
 def writable_sockets(nodes: list, spec: RendererSpec, where: str) -> list:
@@ -164,7 +154,7 @@ def prepare(renderer: str, settings: dict) -> dict:
     if quality != "FAST" and reference.region is None:
         raise VtoError(f"quality {quality.title()} {NO_REGION}")
     if quality != "FAST":
-        budget = FIT_QUALITY[renderer][quality][1]
+        budget = get_product(renderer).fit.renders[quality][1]
     else:  # Fast's polish passes, where there is a region to fit
         budget = fast_polish_passes(renderer) if reference.region is not None else 0
     return {"session": session, "spec": spec, "model": str(model), "reference": reference, "quality": quality,
@@ -208,6 +198,7 @@ class MatchJob:
 
     def __init__(self, renderer: str, settings: dict, material_name: str = "", scene=None):
         self.renderer, self.material_name, self.scene = renderer, material_name, scene
+        self.product = get_product(renderer)
         self.started = time.perf_counter()
         self.nodes()  # the target first: a material without the group is the clearest error
         with warnings.catch_warnings(record=True) as caught:
@@ -220,29 +211,28 @@ class MatchJob:
 
     @property
     def where(self) -> str:
-        return (f"material '{self.material_name}'" if self.renderer == "lipstick"
-                else f"the compositor of scene '{self.scene.name}'")
+        return blender_side(self.product).where(self.target())
 
     @property
     def budget(self) -> int:
         return self.prepared["budget"]
 
-    def nodes(self) -> list:
-        if self.renderer == "lipstick":
-            import bpy
+    def target(self):
+        """The material (a material product) or the scene (a compositor stage) the match writes into."""
+        if not self.product.is_material:
+            return self.scene
+        import bpy
 
-            material = bpy.data.materials.get(self.material_name)
-            if material is None:
-                raise VtoError(f"no material '{self.material_name}' in this .blend")
-            nodes = lipstick_nodes(material)
-            if not nodes:
-                raise VtoError(f"material '{self.material_name}' does not use the 'VTO Lipstick' node group (add "
-                               "one with Add VTO Lipstick Material)")
-            return nodes
-        nodes = hair_nodes(self.scene)
+        material = bpy.data.materials.get(self.material_name)
+        if material is None:
+            raise VtoError(f"no material '{self.material_name}' in this .blend")
+        return material
+
+    def nodes(self) -> list:
+        target = self.target()
+        nodes = group_nodes(self.product, target)
         if not nodes:
-            raise VtoError(f"scene '{self.scene.name}' has no VTO hair compositor groups (add them with Add VTO "
-                           "Hair Compositor)")
+            raise VtoError(blender_side(self.product).missing_group(target))
         return nodes
 
     def targets(self) -> list:
@@ -262,17 +252,22 @@ class MatchJob:
 
 def match_into_material(material_name: str, settings: dict,
                         progress: Callable[[int], None] | None = None) -> dict:
-    """Estimate the lipstick look of the reference and write it into `material_name`'s "VTO Lipstick" group inputs.
+    """Estimate the look of the reference and write it into the inputs of the group `material_name` uses ("VTO
+    Lipstick").
 
     Returns {'values', 'spec', 'model', 'seconds', 'previous'}; raises VtoError (nothing written) on any bad input.
     """
-    job = MatchJob("lipstick", settings, material_name=material_name)
+    import bpy
+
+    product = material_product(bpy.data.materials.get(material_name)) or next(p for p in PRODUCTS.values()
+                                                                              if p.is_material)
+    job = MatchJob(product.name, settings, material_name=material_name)
     return job.finish(drain(job.steps(), progress))
 
 
 def match_into_hair(scene, settings: dict, progress: Callable[[int], None] | None = None) -> dict:
     """The hair look of the reference written into the hair compositor groups of `scene`; as match_into_material."""
-    job = MatchJob("hair", settings, scene=scene)
+    job = MatchJob(compositor_product().name, settings, scene=scene)
     return job.finish(drain(job.steps(), progress))
 
 

@@ -29,10 +29,11 @@ from vto_core.dataset import DEFAULT_SAMPLES, write_text_atomic
 from vto_core.errors import VtoError, failure_line
 from vto_core.imageio import write_image
 from vto_core.inference import EncoderSession
+from vto_core.products import get_product
 from vto_core.specs import ParamSpec, RendererSpec
 
-from ..renderers.tryon import tryon_view
-from .match import photo_source
+from ..renderers.products import blender_side
+from .match import own_source
 from .photo_fit import fit_photo_fast, photo_values
 from .reference import at_size, read_reference
 
@@ -42,7 +43,6 @@ READER = 3  # how photos are read (3: the light read from the skin and taken out
 CHUNK = 32  # photos per encoder call
 TRYON_SAMPLES = 8  # Cycles samples of a try-on cell at most (as the panel's preview): one try-on per product row
 BLANK = 0.5  # the grey of a try-on cell where there is none (hair, or a photo without a face)
-NO_HAIR_TRYON = "hair has no try-on yet"
 
 
 def circular_median(values, low: float, high: float) -> float:
@@ -128,6 +128,11 @@ def fast_values(spec, reference, values: dict[str, float]) -> dict[str, float]:
     if reference.region is not None:
         values = fit_photo_fast(spec, reference.region, {k: values[k] for k in spec.modelled})[0]
     return spec.full_values(photo_values(spec, values))
+
+
+def no_tryon_line(product) -> str:
+    """Why a product's row of the sheet has no try-on."""
+    return f"{product.name} has no try-on yet"
 
 
 def batch_reference(renderer: str, image: Path):
@@ -236,10 +241,12 @@ def parse_args(argv: list[str]):
 
 
 def render_products(renderer: str, presets: dict, products: dict[str, list[Path]], args) -> dict[str, np.ndarray]:
-    """A render of each preset: on default scene `--source`, or (hair) on its first photo if that has a mask."""
+    """A render of each preset: on default scene `--source`, or on its first photo where that is its own source
+    (hair, with a mask)."""
     from ..datasets.commands import render
 
-    return {name: render(renderer, values, (renderer == "hair" and photo_source(products[name][0])) or args.source,
+    product = get_product(renderer)
+    return {name: render(renderer, values, own_source(product, products[name][0]) or args.source,
                          args.res, args.samples, args.seed) for name, values in presets.items()}
 
 
@@ -249,15 +256,16 @@ def sheet_cells(renderer: str, presets: dict, products: dict[str, list[Path]], a
     (the photo around its lips, its preset tried on them)} (renderers.tryon.tryon_view at --res px, at most
     TRYON_SAMPLES samples), {product: why it has no try-on}). One photo is read at a time; hair, a photo with no
     face, or a try-on that fails leaves a product without a try-on, never failing the batch."""
+    product = get_product(renderer)
     references, tryons, missing = {}, {}, {}
     for name, paths in products.items():
         reference = batch_reference(renderer, paths[0])
         references[name] = reference.image
-        if renderer != "lipstick":
-            missing[name] = NO_HAIR_TRYON
+        if not product.tryon:
+            missing[name] = no_tryon_line(product)
             continue
         try:
-            tryons[name] = tryon_view(reference.whole, presets[name], args.res, min(args.samples, TRYON_SAMPLES),
+            tryons[name] = blender_side(product).tryon_view(reference.whole, presets[name], args.res, min(args.samples, TRYON_SAMPLES),
                                       args.seed)
         except Exception as exc:  # VtoError 'no face found ...', or a render that failed: the sheet goes on
             missing[name] = failure_line(exc)
@@ -302,23 +310,22 @@ def cmd_batch(argv: list[str]) -> int:
     renders = render_products(spec.renderer, presets, products, args)
     references, tryons, no_tryon = sheet_cells(spec.renderer, presets, products, args)
     for name, reason in no_tryon.items():
-        if reason != NO_HAIR_TRYON:
+        if reason != no_tryon_line(get_product(spec.renderer)):
             print(f"vto batch: {name}: no try-on on the sheet: {reason}", file=sys.stderr)
     report["sheet"] = contact_sheet(out / "sheet.png", references, renders, args.res, tryons)
     report["sheet_rows"] = list(renders)
     report["sheet_columns"] = ["photo", "try-on", "render"]
     report["sheet_no_tryon"] = no_tryon
-    if spec.renderer == "lipstick":
+    product = get_product(spec.renderer)
+    if product.asset_library:
         from ..datasets.assets import write_library
 
         library = {name: (presets[name], renders[name], []) for name in presets}
         report["materials"] = write_library(out / "assets.blend", library, f"Estimated by {Path(args.model).name}")
         report["asset_library"] = str(out / "assets.blend")
     else:
-        from ..datasets.assets import HAIR_SKIPPED
-
         report["asset_library"] = None
-        report["asset_library_skipped"] = HAIR_SKIPPED
+        report["asset_library_skipped"] = product.no_library
     write_text_atomic(out / "report.json", json.dumps(report, indent=1) + "\n")
     print(json.dumps({"out": str(out), "products": len(presets), "estimated": len(estimates), "cached": cached,
                       "skipped": len(skipped), "images_per_s": report["images_per_s"]}))

@@ -27,8 +27,9 @@ from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.imageio import write_image
 from vto_core.inference import EncoderSession
-from vto_core.specs import get_spec
+from vto_core.products import get_product, get_spec
 
+from ..renderers.products import blender_side
 from .photo_fit import NO_REGION, QUALITIES, fit_photo_fast, iter_fit_photo, photo_values
 from .reference import at_size, read_reference
 from .refine import OBJECTIVES, SIGMA, SIGMA_FROM_MEAN, drain, refine_by_render
@@ -52,51 +53,36 @@ def parse_refine(text: str) -> tuple[str, int]:
 class SourceRenderer:
     """R(X, .) on one fixed source X, at res px, `samples` spp and one Cycles seed: values -> (res, res, 3).
 
-    source: a default-scene seed (int or digits), or for hair a photo with its mask. The hair source is rendered
-    (or loaded) once here; `renders` counts the calls. lighting: the default lips scene's ("wide", "portrait";
-    None: its default); hair has only its own.
+    source: a default-scene seed (int or digits), or where the product's photo is its own source (hair) a photo with
+    its mask, rendered (or loaded) once here; `renders` counts the calls. lighting: the default scene's ("wide",
+    "portrait"; None: its default) where the product has lightings (lips); the others have only their own.
     """
 
     def __init__(self, renderer: str, source, res: int, samples: int = DEFAULT_SAMPLES, seed: int = 0,
                  lighting: str | None = None):
         self.spec = get_spec(renderer)
         self.res, self.samples, self.seed, self.renders, self.lighting = res, samples, seed, 0, lighting
-        if lighting is not None and renderer != "lipstick":
+        if lighting is not None and not get_product(renderer).lightings:
             from ..renderers.lighting import ONLY_LIPS
 
             raise VtoError(ONLY_LIPS)
-        seed_like = isinstance(source, (int, np.integer)) or str(source).isdigit()
-        if renderer == "lipstick":
-            if not seed_like:
-                raise VtoError(f"lipstick sources are seeds of the default lips scene (an integer), got '{source}'")
-            self.source, self.hair = int(source), None
-        else:
-            from ..renderers.hair import resolve_hair_source
-
-            if not seed_like and not Path(source).is_file():
-                raise VtoError(f"hair source {source} is neither a default-scene seed nor a photo")
-            self.source, self.hair = source, resolve_hair_source(source, res, samples, seed)
+        self.source, self.bound = source, blender_side(renderer).bind(source, res, samples, seed, lighting)
 
     def __call__(self, values: dict[str, float]) -> np.ndarray:
         values = self.spec.check_values(values)
         self.renders += 1
-        if self.hair is None:
-            from ..renderers.lipstick import render_lipstick
-
-            return render_lipstick(values, self.source, self.res, self.samples, self.seed, lighting=self.lighting)
-        from ..renderers.hair import run_hair_stage
-
-        return run_hair_stage(self.hair, values)
+        return self.bound.render(values)
 
     def source_image(self) -> np.ndarray:
         """X as the imitator sees it (the dataset's 'source'): the bare lips (opacity 0), or the hair source."""
-        if self.hair is None:
-            return self({"opacity": 0.0})
-        return self.hair.rgb
+        self.renders += get_product(self.spec.renderer).renders_source
+        return self.bound.source_image()
 
 
-def photo_source(image_path: Path) -> str | None:
-    """A hair photo is its own source when a '<name>_mask' image lies beside it."""
+def own_source(product, image_path: Path) -> str | None:
+    """The photo, where it is its own source: a product that says so (hair) and a '<name>_mask' image beside it."""
+    if not product.photo_is_own_source:
+        return None
     return str(image_path) if any(image_path.parent.glob(image_path.stem + "_mask.*")) else None
 
 
@@ -136,14 +122,15 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
         raise VtoError(f"--objective takes {' or '.join(OBJECTIVES)}, got '{objective}'")
     session = EncoderSession(model)
     spec = session.spec
-    if source is None and spec.renderer == "hair" and mask_path is None and crop is None:
-        beside = photo_source(Path(image_path))
+    product = get_product(spec.renderer)
+    if source is None and mask_path is None and crop is None:
+        beside = own_source(product, Path(image_path))
         if beside:
             from ..renderers.hair import mask_path_for
 
             mask_path = str(mask_path_for(Path(image_path)))
     settings = {"image_path": image_path, "crop": crop, "mask_path": mask_path,
-                "find_lips": find_region and source is None, "find_hair": find_region and source is None,
+                "find_region": find_region and source is None,
                 "neutral_light": neutral_light and source is None}
     prepared = read_reference(spec.renderer, settings)
     started = time.perf_counter()
@@ -181,8 +168,8 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
         return result
     if kind == "none":
         return result
-    if source is None and spec.renderer == "hair":
-        source = photo_source(Path(image_path))
+    if source is None:
+        source = own_source(product, Path(image_path))
     if source is None:
         result["note"] = NO_SOURCE
         return result
@@ -203,10 +190,8 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
             res = reference.shape[0]
         on_source = SourceRenderer(spec.renderer, source, res, samples, seed, lighting)
         held = None
-        if on_source.hair is not None and Path(str(source)).resolve() == Path(image_path).resolve():
-            from ..renderers.hair import own_source_held
-
-            held = own_source_held(spec, spec.values(spec.denormalise(start_unit)))
+        if on_source.bound.own_photo and Path(str(source)).resolve() == Path(image_path).resolve():
+            held = blender_side(product).fit_held(spec, spec.values(spec.denormalise(start_unit)))
         refined = refine_by_render(lambda u: on_source(spec.values(spec.denormalise(u))), at_size(reference, res, res),
                                    start_unit, amount, seed, wraps, objective,
                                    SIGMA_FROM_MEAN if start_at == "mean" else SIGMA, held,
@@ -312,14 +297,14 @@ PREVIEW_SIZE = 256  # px: each panel of `vto match --preview`
 def preview(result: dict, image_path: str, samples: int, seed: int) -> np.ndarray:
     """(PREVIEW_SIZE, 3 PREVIEW_SIZE, 3): the photo around its lips | the estimate tried on it | the estimate on the
     default lips (source 0); VtoError for hair, or a photo without a face to try it on."""
-    from ..renderers.lipstick import render_lipstick
-    from ..renderers.tryon import tryon_view
     from .reference import load_reference
 
-    if result["renderer"] != "lipstick":
-        raise VtoError("--preview shows a lipstick tried on the photo: hair has no try-on yet")
-    panels = list(tryon_view(load_reference(image_path), result["params"], PREVIEW_SIZE, samples, seed))
-    panels.append(render_lipstick(result["params"], 0, PREVIEW_SIZE, samples, seed))
+    product = get_product(result["renderer"])
+    if not product.tryon:
+        raise VtoError(f"--preview shows a product tried on the photo: {product.name} has no try-on yet")
+    side = blender_side(product)
+    panels = list(side.tryon_view(load_reference(image_path), result["params"], PREVIEW_SIZE, samples, seed))
+    panels.append(side.render(result["params"], 0, PREVIEW_SIZE, samples, seed))
     return np.concatenate(panels, axis=1)
 
 
@@ -351,7 +336,7 @@ def match_material_cli(args, out: Path | None) -> int:
     blend = bpy.data.filepath
     settings = {"image_path": os.path.abspath(args.image), "model_path": os.path.abspath(args.model) if args.model
                 else "", "crop": crop, "mask_path": os.path.abspath(args.mask) if args.mask else "",
-                "quality": args.quality.upper(), "find_lips": not args.whole_image, "find_hair": not args.whole_image,
+                "quality": args.quality.upper(), "find_region": not args.whole_image,
                 "neutral_light": not args.keep_light}
     result = match_into_material(args.material, settings)
     for warning in result["warnings"]:
@@ -361,7 +346,8 @@ def match_material_cli(args, out: Path | None) -> int:
     save_blend_atomic(blend)
     if out is not None:
         temporary = out.with_name(out.name + ".tmp")
-        temporary.write_text(json.dumps({"renderer": "lipstick", "params": result["values"]}, indent=1) + "\n")
+        temporary.write_text(json.dumps({"renderer": result["spec"].renderer, "params": result["values"]}, indent=1)
+                             + "\n")
         temporary.replace(out)
     print(json.dumps({"blend": blend, "material": args.material, "model": result["model"],
                       "params": result["values"], "seconds": round(result["seconds"], 4)}))

@@ -21,6 +21,7 @@ from vto_core.imageio import as_float, orientation_of, read_image, resize, uprig
 from vto_core.photo.framing import (MIN_SIZE, cut, cut_read, face_roll, lips_frame, lips_view, square_view, view_box,
                                     view_cut)
 from vto_core.photo.photo_light import light_of
+from vto_core.products import get_product
 
 from ..shipped import MODELS, PERSON_SEGMENTER, locate_lips, read_face
 
@@ -369,12 +370,19 @@ def hair_reference(whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
 
 
 def read_reference(renderer: str, settings: dict) -> Reference:
-    """The settings' reference made ready for `renderer` (image, crop, mask; lipstick: find_lips, hair: find_hair);
-    one-line errors."""
+    """The settings' reference made ready for product `renderer` (image, crop, mask, find_region: whether to find its
+    region, the lips or the hair); one-line errors."""
     whole = read_image_setting(settings)
     mask = read_mask(settings["mask_path"], whole.shape[:2]) if settings.get("mask_path") else None
-    if renderer == "hair":
-        return hair_reference(whole, settings.get("crop"), mask, settings.get("neutral_light", True),
-                              settings.get("find_hair", True))
-    return lips_reference(whole, settings.get("crop"), mask, settings.get("find_lips", True),
-                          settings.get("neutral_light", True))
+    product = get_product(renderer)
+    return region_reference(product, whole, settings.get("crop"), mask, settings.get("find_region", True),
+                            settings.get("neutral_light", True))
+
+
+def region_reference(product, whole: np.ndarray, crop=None, mask: np.ndarray | None = None, find: bool = True,
+                     neutral_light: bool = True) -> Reference:
+    """`whole` (H, W, 3) made ready for `product`: its face-mesh region (the lips) found and framed, or, for a product
+    with no face-mesh region, the hair found and a square of it cut; one-line errors."""
+    if product.face_region is None:
+        return hair_reference(whole, crop, mask, neutral_light, find)
+    return lips_reference(whole, crop, mask, find, neutral_light)

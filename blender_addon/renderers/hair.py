@@ -15,7 +15,8 @@ from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.hair import PHOTO_HAIR, blur_radius, fit_hair_match, hair_gradient, hair_square
 from vto_core.imageio import read_image, resize
-from vto_core.specs import RendererSpec, get_spec
+from vto_core.specs import RendererSpec
+from vto_core.products import get_spec
 
 from ..compat import composite_output, compositor_tree, set_exr_output
 from ..shipped import DATA

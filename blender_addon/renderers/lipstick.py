@@ -7,9 +7,10 @@ import numpy as np
 
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 
 from ..compat import uses_nodes
+from .node_utils import node_values
 from .nodes_lipstick import GROUP_NAME
 from .cycles import configure_cycles, render_passes, render_user_scene, to_display
 from .scene_lips import applied, apply_source, build_lips_scene, use_lighting
@@ -62,14 +63,9 @@ def scene_values(scene: bpy.types.Scene) -> dict[str, float]:
     nodes = makeup_nodes(scene)
     if not nodes:
         raise VtoError(f"scene '{scene.name}' has no material using the '{GROUP_NAME}' node group")
-    return node_values(nodes[0])
+    return node_values(nodes[0], get_spec("lipstick"))
 
 
-def node_values(node: bpy.types.Node) -> dict[str, float]:
-    """A "VTO Lipstick" group node's inputs as the artist set them (linked ones left out)."""
-    inputs = node.inputs
-    return {p.name: float(inputs[p.socket].default_value) for p in get_spec("lipstick").params
-            if not inputs[p.socket].is_linked}
 
 
 def linked_inputs(scene: bpy.types.Scene) -> list[str]:

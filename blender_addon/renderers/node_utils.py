@@ -6,7 +6,7 @@ import bpy
 
 from collections.abc import Iterable
 
-from vto_core.specs import ParamSpec
+from vto_core.specs import ParamSpec, RendererSpec
 
 from ..compat import compositor_idname
 
@@ -93,3 +93,9 @@ def add_spec_inputs(group: bpy.types.NodeTree, params: Iterable[ParamSpec]) -> N
 def interface_names(group: bpy.types.NodeTree, in_out: str = "INPUT") -> list[str]:
     """Names of a group's interface sockets of one direction, in order."""
     return [item.name for item in group.interface.items_tree if item.item_type == "SOCKET" and item.in_out == in_out]
+
+
+def node_values(node, spec: RendererSpec) -> dict[str, float]:
+    """A group node's inputs for `spec`'s parameters as the artist set them (linked ones left out)."""
+    inputs = node.inputs
+    return {p.name: float(inputs[p.socket].default_value) for p in spec.params if not inputs[p.socket].is_linked}

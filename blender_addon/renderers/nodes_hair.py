@@ -5,7 +5,7 @@ from __future__ import annotations
 import bpy
 
 from vto_core.hair import BLEND_OFFSET, BLEND_RAMP, BLEND_SCALE, GLOBAL_CONTRAST_GAIN, LOCAL_CONTRAST_GAIN
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 
 from ..compat import COMPOSITOR_TREE, mix_color_sockets, set_blur_size, set_gaussian_blur
 from .node_utils import Builder, add_spec_inputs, get_or_create_group

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import bpy
 
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 
 from ..compat import enable_nodes
 from .node_utils import Builder, add_spec_inputs, get_or_create_group

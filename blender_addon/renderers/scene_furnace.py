@@ -7,7 +7,7 @@ import bpy
 import numpy as np
 
 from vto_core.colour import srgb_to_linear
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 
 from ..compat import enable_nodes
 from .nodes_lipstick import lipstick_group

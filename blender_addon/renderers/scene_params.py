@@ -8,7 +8,7 @@ import bpy
 
 from vto_core.cli import ArgumentParser
 from vto_core.errors import VtoError
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 from vto_core.visibility import VISIBLE_RATIO, parameter_visibility, quartile_values
 
 from ..blendfile import open_blend

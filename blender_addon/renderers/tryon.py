@@ -25,7 +25,7 @@ from vto_core.photo.framing import lips_view, square_view, view_box, view_cut
 from vto_core.photo.lips_locator import LIP_INNER, LIP_OUTER, lips_mask
 from vto_core.photo.photo_light import light_of
 from vto_core.photo.tryon import composite, feathered, lips_mesh, worn_over_bare
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 
 from ..shipped import locate_lips
 from .cycles import configure_cycles, render_passes

@@ -10,8 +10,9 @@ from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, StringPro
 
 from vto_core.errors import VtoError, failure_line
 
+from vto_core.products import PRODUCTS, product_of_target
+
 from ..matching import apply
-from ..matching.photo_fit import OFFERED
 from . import preview
 from .preferences import preference_model
 from .properties import QUALITY_ITEMS, remember, settings_dict
@@ -68,9 +69,8 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
     bl_label = "Match"
     bl_options = {"REGISTER", "UNDO"}
 
-    target: EnumProperty(name="Target", items=[
-        ("MATERIAL", "Lipstick Material", "The 'VTO Lipstick' group of a material"),
-        ("HAIR", "Hair Compositor", "The VTO hair groups of the scene's compositor")], default="MATERIAL")
+    target: EnumProperty(name="Target", items=[p.target_item for p in PRODUCTS.values()],
+                         default=next(iter(PRODUCTS.values())).target)
     material: StringProperty(name="Material", default="", description="Material name (default: the active one)")
     image_path: StringProperty(name="Image", subtype="FILE_PATH", description="Reference photo (default: the panel's)")
     image_name: StringProperty(name="Image Datablock", default="", description="An image of this .blend instead")
@@ -79,8 +79,11 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
                               description="x, y, w, h from the top-left, pixels or fractions")
     model_path: StringProperty(name="Model", subtype="FILE_PATH", description="Encoder (.onnx); default: the panel's")
     quality: EnumProperty(name="Quality", items=QUALITY_ITEMS, default="FAST")
-    find_lips: BoolProperty(name="Find Lips", default=True, description="Find the lips in the photo (lipstick)")
-    find_hair: BoolProperty(name="Find Hair", default=True, description="Find the hair in a portrait (hair)")
+    find_region: BoolProperty(name="Find Region", default=True,
+                              description="Find the lips (lipstick) or the hair (hair) in the photo")
+    # The older names of find_region, one a product, still taken from scripts
+    find_lips: BoolProperty(name="Find Lips", default=True, options={"HIDDEN"}, description="find_region's older name")
+    find_hair: BoolProperty(name="Find Hair", default=True, options={"HIDDEN"}, description="find_region's older name")
 
     def settings(self, stored) -> dict:
         """The stored panel settings (if any), overridden by whatever was passed to this call."""
@@ -91,18 +94,22 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
             settings.pop("image_name", None)
             settings["image_path" if passed("image_path") else "image_name"] = (
                 self.image_path if passed("image_path") else self.image_name)
-        for name in ("mask_path", "model_path", "quality", "find_lips", "find_hair"):
+        for name in ("mask_path", "model_path", "quality"):
             if passed(name):
                 settings[name] = getattr(self, name)
+        for name in ("find_lips", "find_hair", "find_region"):  # the newest name passed wins
+            if passed(name):
+                settings["find_region"] = getattr(self, name)
         if passed("crop"):
             settings["crop"] = tuple(self.crop)
         return settings
 
     def begin(self, context):
         """(the validated MatchJob, the settings group to remember the values in); VtoError on bad input."""
-        renderer = "hair" if self.target == "HAIR" else "lipstick"
+        product = product_of_target(self.target)
+        renderer = product.name
         material, stored = None, None
-        if renderer == "lipstick":
+        if product.is_material:
             material = bpy.data.materials.get(self.material) if self.material else getattr(context, "material", None)
             if self.material and material is None:
                 raise VtoError(f"no material '{self.material}' in this .blend")
@@ -112,10 +119,10 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
         else:
             stored = getattr(context.scene, "vto_hair_match", None)
         settings = self.settings(stored)
-        if not self.properties.is_property_set("quality") and settings["quality"] not in OFFERED[renderer]:
+        if not self.properties.is_property_set("quality") and settings["quality"] not in product.fit.offered:
             settings["quality"] = "FAST"  # what the panel shows: it offers no other for this renderer
         settings["preference_model"] = preference_model(context, renderer)
-        if renderer == "lipstick":
+        if product.is_material:
             return apply.MatchJob(renderer, settings, material_name=material.name), stored
         return apply.MatchJob(renderer, settings, scene=context.scene), stored
 
@@ -133,7 +140,7 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
             self.report({"INFO"}, note)
         if stored is not None:
             remember(stored, job.renderer, result["values"], result["model"], result["seconds"])
-        if job.renderer == "lipstick" and stored is not None and not another_thread_renders():
+        if job.product.tryon and stored is not None and not another_thread_renders():
             # the panel's Preview on Photo, after Match, on the photo Match read (not while Blender renders: a render
             # now would wait for the Python lock that render's thread needs, as Better does)
             preview.refresh(bpy.data.materials[job.material_name], job.prepared["reference"].whole)

@@ -8,11 +8,10 @@ from pathlib import Path
 
 import bpy
 
-from vto_core.specs import get_spec
+from vto_core.products import Product, get_spec
 
 from ..matching import apply
 from . import preview, thumbnail, warmup
-from ..matching.photo_fit import FIT_QUALITY, FIT_SECONDS, NOT_OFFERED, OFFERED, fast_polish_passes
 from .operators import (VTO_OT_add_hair_compositor, VTO_OT_add_lipstick_material, VTO_OT_match_from_photo,
                         VTO_OT_preview_on_photo)
 from .preferences import preference_model
@@ -27,12 +26,12 @@ def split_column(layout):
     return layout.column()
 
 
-def draw_reference(column, props, preview_name: str, renderer: str) -> None:
+def draw_reference(column, props, preview_name: str, product: Product) -> None:
     """Reference (a file or an image of the .blend), its thumbnail with the crop and the lips or hair found outlined,
     crop, mask and whether to find the lips or the hair."""
     column.prop(props, "image" if props.use_datablock else "image_path", text="Reference")
     column.prop(props, "use_datablock", text="Image in .blend")
-    icon_id, why = thumbnail.icon(props, preview_name, renderer)
+    icon_id, why = thumbnail.icon(props, preview_name, product)
     if icon_id:
         column.template_icon(icon_value=icon_id, scale=THUMBNAIL_SCALE)
     if why and why != "no image chosen":
@@ -47,13 +46,13 @@ def draw_reference(column, props, preview_name: str, renderer: str) -> None:
             box.prop(props, "crop", index=index, text=name)
     column.prop(props, "mask_path", text="Mask")
     row = column.row()
-    row.active = not props.mask_path and not (renderer == "hair" and props.use_crop)  # these say where it is
-    row.prop(props, "find_lips" if renderer == "lipstick" else "find_hair")
+    row.active = not props.mask_path and not (product.face_region is None and props.use_crop)  # these say where it is
+    row.prop(props, "find_region", text=f"Find {product.region.title()}")
 
 
-def draw_quality(column, props, renderer: str) -> None:
-    """Fast / Better / Best where they pay (OFFERED; else why not), and what the choice costs."""
-    offered = OFFERED[renderer]
+def draw_quality(column, props, product: Product) -> None:
+    """Fast / Better / Best where they pay (FitPolicy.offered; else why not), and what the choice costs."""
+    offered = product.fit.offered
     quality = props.quality if props.quality in offered else "FAST"
     if len(offered) > 1:
         split = column.split(factor=0.4)  # the label column of property split, which prop_enum does not follow
@@ -64,22 +63,22 @@ def draw_quality(column, props, renderer: str) -> None:
         row.use_property_split = False
         for value in offered:
             row.prop_enum(props, "quality", value)
-    column.label(text=quality_cost(renderer, quality), icon="TIME")
-    if renderer in NOT_OFFERED:
-        column.label(text=NOT_OFFERED[renderer], icon="INFO")
+    column.label(text=quality_cost(product, quality), icon="TIME")
+    if product.fit.not_offered:
+        column.label(text=product.fit.not_offered, icon="INFO")
 
 
-def quality_cost(renderer: str, quality: str) -> str:
-    """'Fast: no render, milliseconds', 'Fast: 3 stage passes, 0.3-1 s' (fast_polish_passes) or 'Better: 25
-    renders, 4-17 s' (FIT_QUALITY, FIT_SECONDS)."""
+def quality_cost(product: Product, quality: str) -> str:
+    """'Fast: no render, milliseconds', 'Fast: 3 stage passes, 0.3-1 s' (FitPolicy.polish_passes) or 'Better: 25
+    renders, 4-17 s' (FitPolicy.renders, seconds)."""
     if quality == "FAST":
-        passes = fast_polish_passes(renderer)
+        passes = product.fit.polish_passes
         if not passes:
             return "Fast: no render, milliseconds"
-        seconds, first = FIT_SECONDS[renderer][quality]
+        seconds, first = product.fit.seconds[quality]
         return f"Fast: {passes} stage passes, {seconds:g}-{first:g} s"
-    renders = FIT_QUALITY[renderer][quality][1]
-    seconds, first = FIT_SECONDS[renderer][quality]
+    renders = product.fit.renders[quality][1]
+    seconds, first = product.fit.seconds[quality]
     return f"{quality.title()}: {renders} renders, {seconds:g}-{first:g} s"  # the longer: a session's first fit
 
 
@@ -97,14 +96,14 @@ def draw_estimate(layout, props) -> None:
         box.label(text=line)
 
 
-def draw_match(layout, context, props, renderer: str, target: str, material_name: str = "") -> None:
+def draw_match(layout, context, props, product: Product, material_name: str = "") -> None:
     """The shared body: reference, crop, mask, model, quality, Match, and the values last written."""
     column = split_column(layout)
-    draw_reference(column, props, f"{target}:{material_name}", renderer)
-    if renderer == "lipstick" and material_name:
+    draw_reference(column, props, f"{product.target}:{material_name}", product)
+    if product.tryon and material_name:
         draw_preview(column, bpy.data.materials[material_name])
-    preference = preference_model(context, renderer)
-    model = apply.resolve_model(renderer, props.model_path, preference)
+    preference = preference_model(context, product.name)
+    model = apply.resolve_model(product.name, props.model_path, preference)
     try:
         column.prop(props, "model_path", text="Model", placeholder="shipped"
                     if not (props.model_path or preference) else model.stem)
@@ -117,12 +116,12 @@ def draw_match(layout, context, props, renderer: str, target: str, material_name
         alert.label(text=problem, icon="ERROR")
     else:
         warmup.ensure(model)
-    draw_quality(column, props, renderer)
+    draw_quality(column, props, product)
 
     row = layout.row()
     row.scale_y = 1.4
     operator = row.operator(VTO_OT_match_from_photo.bl_idname, text="Match", icon="EYEDROPPER")
-    operator.target = target
+    operator.target = product.target
     if material_name:
         operator.material = material_name
     if props.last_estimate:
@@ -151,14 +150,14 @@ class MaterialMatch:
 
     @classmethod
     def poll(cls, context):
-        return bool(apply.lipstick_nodes(getattr(context, "material", None)))
+        return apply.material_product(getattr(context, "material", None)) is not None
 
     def draw_header(self, context):
         self.layout.label(icon="EYEDROPPER")
 
     def draw(self, context):
         material = context.material
-        draw_match(self.layout, context, material.vto_match, "lipstick", "MATERIAL", material.name)
+        draw_match(self.layout, context, material.vto_match, apply.material_product(material), material.name)
 
 
 class VTO_PT_match_material(MaterialMatch, bpy.types.Panel):
@@ -193,11 +192,11 @@ class VTO_PT_match_shader(SidebarPanel, bpy.types.Panel):
     def poll(cls, context):
         space = getattr(context, "space_data", None)
         return (getattr(space, "tree_type", "") == "ShaderNodeTree"
-                and bool(apply.lipstick_nodes(getattr(space, "id", None))))
+                and apply.material_product(getattr(space, "id", None)) is not None)
 
     def draw(self, context):
         material = context.space_data.id
-        draw_match(self.layout, context, material.vto_match, "lipstick", "MATERIAL", material.name)
+        draw_match(self.layout, context, material.vto_match, apply.material_product(material), material.name)
 
 
 class VTO_PT_match_hair(SidebarPanel, bpy.types.Panel):
@@ -211,11 +210,12 @@ class VTO_PT_match_hair(SidebarPanel, bpy.types.Panel):
         return getattr(space, "tree_type", "") == "CompositorNodeTree" and context.scene is not None
 
     def draw(self, context):
-        if not apply.hair_nodes(context.scene):
-            self.layout.label(text="No VTO hair groups in this compositor")
+        product = apply.compositor_product()
+        if not apply.group_nodes(product, context.scene):
+            self.layout.label(text=f"No {product.group_text} in this compositor")
             self.layout.operator(VTO_OT_add_hair_compositor.bl_idname, icon="NODETREE")
             return
-        draw_match(self.layout, context, context.scene.vto_hair_match, "hair", "HAIR")
+        draw_match(self.layout, context, context.scene.vto_hair_match, product)
 
 
 class VTO_PT_add_lipstick(bpy.types.Panel):
@@ -232,7 +232,7 @@ class VTO_PT_add_lipstick(bpy.types.Panel):
     def poll(cls, context):
         obj = getattr(context, "object", None)
         return (obj is not None and obj.type == "MESH"
-                and not apply.lipstick_nodes(getattr(context, "material", None)))
+                and apply.material_product(getattr(context, "material", None)) is None)
 
     def draw(self, context):
         self.layout.label(text="This material does not use the VTO Lipstick group")

@@ -5,22 +5,27 @@ from __future__ import annotations
 import bpy
 from bpy.props import StringProperty
 
+from vto_core.products import PRODUCTS
+
 PACKAGE = __package__.rpartition(".")[0]  # "blender_addon", or the extension's package name once installed
+
+
+def model_setting(product) -> StringProperty:
+    """The preferences' model path of one product: '<name>_model'."""
+    where = f"{product.name} materials" if product.is_material else f"the {product.name} compositor"
+    return StringProperty(name=f"{product.label} Model", subtype="FILE_PATH",
+                          description=f"Encoder (.onnx) for {where}; empty: the shipped one")
 
 
 class VTO_AP_preferences(bpy.types.AddonPreferences):
     """Models of Match from photo: empty means the model shipped with the add-on."""
 
     bl_idname = PACKAGE
-
-    lipstick_model: StringProperty(name="Lipstick Model", subtype="FILE_PATH",
-                                   description="Encoder (.onnx) for lipstick materials; empty: the shipped one")
-    hair_model: StringProperty(name="Hair Model", subtype="FILE_PATH",
-                               description="Encoder (.onnx) for the hair compositor; empty: the shipped one")
+    __annotations__ = {f"{product.name}_model": model_setting(product) for product in PRODUCTS.values()}
 
     def draw(self, context):
-        self.layout.prop(self, "lipstick_model")
-        self.layout.prop(self, "hair_model")
+        for product in PRODUCTS.values():
+            self.layout.prop(self, f"{product.name}_model")
 
 
 def preference_model(context, renderer: str) -> str:

@@ -7,11 +7,11 @@ from __future__ import annotations
 import numpy as np
 
 from vto_core.errors import VtoError, failure_line
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 
-from ..matching.apply import lipstick_nodes
-from ..renderers.lipstick import node_values
-from ..renderers.tryon import tryon_view
+from ..matching.apply import group_nodes, material_product
+from ..renderers.node_utils import node_values
+from ..renderers.products import blender_side
 from .thumbnail import preview_icon, reference_pixels
 
 SIZE = 96  # px: each half of the preview (the photo, the try-on)
@@ -19,18 +19,20 @@ SAMPLES = 8  # Cycles samples: a preview, not a dataset
 _made: dict[str, tuple[int, str, np.ndarray | None]] = {}  # material name -> (icon id, the note, the picture)
 
 
-def material_values(material) -> dict[str, float]:
-    """Every lipstick parameter as the material's first "VTO Lipstick" node holds it (linked inputs at defaults)."""
-    nodes = lipstick_nodes(material)
-    if not nodes:
-        raise VtoError(f"material '{material.name}' does not use the 'VTO Lipstick' node group")
-    return get_spec("lipstick").full_values(node_values(nodes[0]))
+def material_values(material) -> tuple[object, dict[str, float]]:
+    """(the material's product, its every parameter as the material's first group node holds it (linked inputs at
+    defaults)); VtoError where the material uses no product's group or its product has no try-on."""
+    product = material_product(material)
+    if product is None or not product.tryon:
+        raise VtoError(f"material '{material.name}' uses no group that can be tried on a photo (VTO Lipstick)")
+    spec = get_spec(product.name)
+    return product, spec.full_values(node_values(group_nodes(product, material)[0], spec))
 
 
-def compose(photo: np.ndarray, values: dict[str, float]) -> np.ndarray:
-    """(SIZE, 2 SIZE, 3): the photo around its lips | the same part wearing `values` (renderers.tryon.tryon_view:
+def compose(photo: np.ndarray, product, values: dict[str, float]) -> np.ndarray:
+    """(SIZE, 2 SIZE, 3): the photo around its region | the same part wearing `values` (the product's tryon_view:
     drawn on that part only, so a 64-megapixel photo costs no whole copy)."""
-    return np.concatenate(tryon_view(photo, values, SIZE, SAMPLES, 0), axis=1)
+    return np.concatenate(blender_side(product).tryon_view(photo, values, SIZE, SAMPLES, 0), axis=1)
 
 
 def refresh(material, photo: np.ndarray | None = None) -> tuple[int, str]:
@@ -38,7 +40,7 @@ def refresh(material, photo: np.ndarray | None = None) -> tuple[int, str]:
     the one line saying why there is none)."""
     try:
         photo = reference_pixels(material.vto_match) if photo is None else photo
-        picture = compose(photo, material_values(material))
+        picture = compose(photo, *material_values(material))
     except Exception as exc:  # VtoError, or a render that failed: the panel says why, Match is not undone
         _made[material.name] = (0, failure_line(exc), None)
         return shown(material)

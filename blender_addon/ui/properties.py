@@ -25,13 +25,11 @@ class VTO_PG_match_settings(bpy.types.PropertyGroup):
     image_path: StringProperty(name="Reference", subtype="FILE_PATH", description="The reference photo")
     image: PointerProperty(name="Reference Image", type=bpy.types.Image,
                            description="An image already in the .blend as the reference")
-    find_lips: BoolProperty(name="Find Lips", default=True,
-                            description="Find the lips in the photo with a face model (a portrait, or a close-up of "
-                                        "lips); off: the image or crop is taken as it is")
-    find_hair: BoolProperty(name="Find Hair", default=True,
-                            description="Find the hair around the largest face of a portrait (a person model and the "
-                                        "face mesh); a picture with no face is read whole as a patch of hair; off: "
-                                        "the image or crop is taken as all hair")
+    find_region: BoolProperty(name="Find Region", default=True,
+                              description="Find what the photo shows of the product: the lips with a face model (a "
+                                          "portrait, or a close-up of lips), the hair around the largest face of a "
+                                          "portrait (a picture with no face is read whole as a patch of hair); off: "
+                                          "the image or crop is taken as it is")
     use_crop: BoolProperty(name="Crop", default=False, description="Estimate from a part of the reference only")
     crop: FloatVectorProperty(name="Crop", size=4, min=0.0, default=(0.0, 0.0, 1.0, 1.0),
                               description="x, y, width, height from the top-left corner: in pixels, or fractions of "
@@ -49,11 +47,22 @@ class VTO_PG_match_settings(bpy.types.PropertyGroup):
                                   description="JSON of the last values written, for the panel")
 
 
+LEGACY_FIND = ("find_lips", "find_hair")  # what find_region was called before (one per product); old .blend files hold it
+
+
+def find_region(props) -> bool:
+    """The find_region setting; a .blend saved before it keeps the value it stored under its old name."""
+    if "find_region" not in props:  # never set here: the default, or an old name's stored value (a set one was off)
+        for old in LEGACY_FIND:
+            if old in props:
+                return bool(props[old])
+    return props.find_region
+
+
 def settings_dict(props: VTO_PG_match_settings) -> dict:
     """The panel's settings as the plain dict blender_addon.matching.apply takes."""
     settings = {"quality": props.quality, "model_path": props.model_path, "mask_path": props.mask_path,
-                "crop": tuple(props.crop) if props.use_crop else None, "find_lips": props.find_lips,
-                "find_hair": props.find_hair}
+                "crop": tuple(props.crop) if props.use_crop else None, "find_region": find_region(props)}
     if props.use_datablock:
         settings["image_name"] = props.image.name if props.image else ""
     else:

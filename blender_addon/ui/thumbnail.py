@@ -11,8 +11,9 @@ from vto_core.errors import VtoError
 from vto_core.photo.face_reader import apply_matrix
 from vto_core.photo.framing import lips_view
 
-from ..matching.reference import (absolute_path, crop_box, datablock_pixels, hair_reference, lips_reference,
-                                  load_reference, read_mask)
+from ..matching.reference import (absolute_path, crop_box, datablock_pixels, load_reference, read_mask,
+                                  region_reference)
+from .properties import find_region
 
 SIZE = 128  # pixels of the square thumbnail
 CROP_COLOUR = (1.0, 0.78, 0.1)  # the crop's outline: Blender's selection orange-yellow
@@ -24,7 +25,7 @@ _previews = None
 _made: dict[str, tuple] = {}  # preview name -> the settings it shows
 
 
-def source_key(props, renderer: str = "lipstick") -> tuple:
+def source_key(props, product) -> tuple:
     """What the thumbnail depends on: the reference (with its file's mtime), the crop and the mask."""
     def stamp(path: str):
         path = absolute_path(path) if path else ""
@@ -35,10 +36,9 @@ def source_key(props, renderer: str = "lipstick") -> tuple:
         source = ("datablock", image.name if image else "", image.is_dirty if image else False)
     else:
         source = ("file",) + stamp(props.image_path)
-    if renderer == "lipstick":
-        finding = props.find_lips and not props.mask_path
-    else:
-        finding = props.find_hair and not props.mask_path and not props.use_crop
+    # a face-mesh region is found inside the crop; the hair is found only in the whole photo
+    finding = (find_region(props) and not props.mask_path
+               and not (product.face_region is None and props.use_crop))
     return source, tuple(round(v, 4) for v in props.crop) if props.use_crop else None, stamp(props.mask_path), finding
 
 
@@ -107,12 +107,12 @@ def reference_pixels(props) -> np.ndarray:
     return load_reference(absolute_path(props.image_path))
 
 
-def icon(props, name: str, renderer: str = "lipstick") -> tuple[int, str]:
+def icon(props, name: str, product) -> tuple[int, str]:
     """(the thumbnail's icon id, a note or "") or (0, why there is none); remade only when what it shows has changed.
 
     With Find Lips (Find Hair) on and no mask (nor, for hair, a crop), the lips (the hair) are found as Match will
     find them, and outlined; the note says what the locator said (e.g. which face, or that it found none)."""
-    key = source_key(props, renderer)
+    key = source_key(props, product)
     if _previews is not None and _made.get(name, (None,))[0] == key:
         return _made[name][1], _made[name][2]
     try:
@@ -122,7 +122,7 @@ def icon(props, name: str, renderer: str = "lipstick") -> tuple[int, str]:
         lips, hair, note = None, None, ""
         if key[-1]:
             try:  # as Match will find them
-                found = lips_reference(reference, crop) if renderer == "lipstick" else hair_reference(reference)
+                found = region_reference(product, reference, crop)
                 lips, hair, note = found.lips, found.hair, "; ".join(found.notes)
             except VtoError as exc:
                 note = str(exc)

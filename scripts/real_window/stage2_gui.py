@@ -255,13 +255,18 @@ def undo():
 
 def quality_label(props, renderer="lipstick"):
     """The cost line the panel shows under the Quality row, from the installed extension's panels module."""
-    return extension("ui.panels").quality_cost(renderer, props.quality)
+    return extension("ui.panels").quality_cost(get_product(renderer), props.quality)
 
 
 def extension(module):
     """A module of the installed extension (bl_ext.<repo>.vto_match.<module>)."""
     (package,) = [name for name in bpy.context.preferences.addons.keys() if name.endswith(".vto_match")]
     return importlib.import_module(f"{package}.{module}")
+
+
+def get_product(name):
+    """A product's declaration, from the vto_core wheel the extension bundles."""
+    return importlib.import_module("vto_core.products").get_product(name)
 
 
 def lips_found(path):
@@ -384,10 +389,10 @@ def script():
     except Exception as exc:  # noqa: BLE001  (recorded, not fatal: the screenshots show the outline)
         RESULT["errors"].append(f"lips box: {type(exc).__name__}: {exc}")
 
-    # The qualities lips are offered (photo_fit.OFFERED); where Better is one, a real click on it, then Match: the fit
+    # The qualities lips are offered (its FitPolicy.offered); where Better is one, a real click on it, then Match: the fit
     # in the photo's own scene runs as a modal operator.
-    lips["offered"] = list(extension("matching.photo_fit").OFFERED["lipstick"])
-    lips["not_offered"] = extension("matching.photo_fit").NOT_OFFERED.get("lipstick", "")
+    lips["offered"] = list(get_product("lipstick").fit.offered)
+    lips["not_offered"] = get_product("lipstick").fit.not_offered
     if "BETTER" in lips["offered"]:
         yield 0.5
         grab("lips_fast_chosen", region_of(props_area))

@@ -224,7 +224,7 @@ def test_extension_builds_installs_and_runs_the_cli(tmp_path):
     assert report["add_hair"] == ["FINISHED"] and report["hair_groups"] == ["VTO Hair Color", "VTO Hair Swatch"]
     print("\n".join(line for line in done.stdout.splitlines() if line.startswith("Info: matched")))  # shown by -rP
     from vto_core.inference import EncoderSession
-    from vto_core.specs import get_spec
+    from vto_core.products import get_spec
 
     from blender_addon.matching.photo_fit import fit_photo_fast
     from blender_addon.matching.reference import read_reference

@@ -117,7 +117,7 @@ def test_stages_skip_same_settings_redo_changed_ones_and_resume_unfinished(tmp_p
 def test_every_stage_is_stamped_with_the_spec_so_a_changed_spec_remakes_it(monkeypatch, tmp_path):
     import pipeline.demo_report
     from pipeline import demo
-    from vto_core.specs import get_spec
+    from vto_core.products import get_spec
 
     class Stop(Exception):
         pass

@@ -22,7 +22,7 @@ from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import read_image  # noqa: E402
 from vto_core.metrics import psnr  # noqa: E402
 from vto_core.presets import load_presets  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import get_spec  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 RES, SAMPLES, N = 16, 2, 2

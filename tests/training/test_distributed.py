@@ -15,7 +15,7 @@ from training.config import EncoderConfig, resolve_config  # noqa: E402
 from training.networks import build  # noqa: E402
 from training.run import RunFolder  # noqa: E402
 from training.train_encoder import load_frozen_imitator, train_encoder  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import get_spec  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 TWO = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node", "2"]

@@ -415,7 +415,7 @@ def test_weighted_total_logs_each_term_both_ways():
 
 
 def test_wrapping_dimensions_come_from_the_spec():
-    from vto_core.specs import get_spec
+    from vto_core.products import get_spec
 
     spec = get_spec("hair")
     wraps = [p.wraps for p in spec.modelled_params]

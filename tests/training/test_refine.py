@@ -12,7 +12,7 @@ from training.refine import ImitatorRefiner  # noqa: E402
 from training.train_imitator import train_imitator  # noqa: E402
 from vto_core.dataset import DatasetReader  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import get_spec  # noqa: E402
 
 SPEC = get_spec("lipstick", "opacity,red,green,blue")
 

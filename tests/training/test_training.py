@@ -18,7 +18,7 @@ from vto_core import cli  # noqa: E402
 from vto_core.dataset import DatasetReader, DatasetUnion  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.inference import EncoderSession  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import get_spec  # noqa: E402
 
 TINY_IMITATOR = ["width=8", "n_down=1", "n_res=1", "critic_width=8", "critic_layers=2", "batch_size=8",
                  "perceptual=ssim_l1", "log_every=5", "checkpoint_every=10", "lr=0.002"]

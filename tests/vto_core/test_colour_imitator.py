@@ -7,7 +7,7 @@ import pytest
 
 from vto_core.colour_imitator import INPUT_NAME, KIND, OUTPUT_NAME, ColourImitator, cached_imitator
 from vto_core.errors import VtoError
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 
 SPEC = get_spec("hair", "brightness,hue,saturation")
 WEIGHTS = np.array([[40.0, 0.0, 5.0, 1.0], [0.0, 30.0, 0.0, -2.0], [3.0, 0.0, 25.0, 0.5]], np.float32)  # (m, F)

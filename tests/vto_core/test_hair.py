@@ -9,7 +9,7 @@ from vto_core.errors import VtoError
 from vto_core.hair import (CURVE_TABLE_POINTS, MAX_LUT_SLOPE, apply_curves_node, apply_hair_stage, blend_weight,
                            blur_radius, fit_hair_match, gaussian_blur, hair_gradient, render_hair_reference, shine)
 from vto_core.histogram import HistogramMatch
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 
 IDENTITY = (np.linspace(0, 1, 5), np.linspace(0, 1, 5))
 

@@ -7,7 +7,7 @@ from scipy.stats import truncnorm
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler, PresetNormal, truncated_standard_normal
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 
 
 def make(renderer, ratio=0.5, seed=0, params=None):

@@ -10,9 +10,10 @@ import pytest
 from hypothesis import given, strategies as st
 
 from vto_core.errors import VtoError
-from vto_core.specs import RENDERERS, ParamSpec, RendererSpec, get_spec
+from vto_core.products import PRODUCTS, get_spec
+from vto_core.specs import ParamSpec, RendererSpec
 
-ALL_PARAMS = [(r, p) for r, spec in RENDERERS.items() for p in spec.params]
+ALL_PARAMS = [(r, p) for r, spec in ((name, product.spec) for name, product in PRODUCTS.items()) for p in spec.params]
 IDS = [f"{r}.{p.name}" for r, p in ALL_PARAMS]
 
 

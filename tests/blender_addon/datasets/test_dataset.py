@@ -20,7 +20,7 @@ from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
 from vto_core import cli  # noqa: E402
 from vto_core.dataset import DatasetReader, shard_from_env, shard_range  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import get_spec  # noqa: E402
 
 TINY = ["--res", "16", "--samples", "2", "--params", "red,gloss", "--seed", "5", "--quiet"]
 

@@ -18,7 +18,7 @@ from vto_core.imageio import read_image, write_image  # noqa: E402
 from vto_core.inference import EncoderSession  # noqa: E402
 from vto_core.params_io import parse_params  # noqa: E402
 from vto_core.presets import load_presets  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import get_spec  # noqa: E402
 
 MODEL = str(Path(__file__).resolve().parents[3] / "blender_addon" / "models" / "lipstick_encoder.onnx")
 RES, SAMPLES = 32, 4
@@ -248,7 +248,7 @@ def tiny_hair_encoder(path: Path) -> str:
 
 
 def test_hair_batch_takes_circular_medians_and_skips_the_asset_library(tmp_path):
-    from blender_addon.datasets.assets import HAIR_SKIPPED
+    from vto_core.products import HAIR
     from blender_addon.renderers.hair import render_hair_source, run_hair_stage
 
     photos, presets = tmp_path / "photos", load_presets("hair")
@@ -265,7 +265,7 @@ def test_hair_batch_takes_circular_medians_and_skips_the_asset_library(tmp_path)
     report = json.loads((out / "report.json").read_text())
     assert report["products"] == {"copper": ["copper_a.png", "copper_b.png"], "teal": ["teal_a.png"]}
     assert report["skipped"] == [] and report["asset_library"] is None
-    assert report["asset_library_skipped"] == HAIR_SKIPPED and not (out / "assets.blend").exists()
+    assert report["asset_library_skipped"] == HAIR.no_library and not (out / "assets.blend").exists()
     session, spec = EncoderSession(model), get_spec("hair")
     estimates = [photo_estimate(session, "hair", photos / name) for name in report["products"]["copper"]]
     assert all((e["intensity"], e["blend"]) == (1.0, -1.0) for e in estimates)  # a photo: full effect

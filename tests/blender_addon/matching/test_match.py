@@ -12,7 +12,7 @@ pytestmark = [pytest.mark.blender, pytest.mark.torch, pytest.mark.slow]
 pytest.importorskip("bpy")
 pytest.importorskip("torch")
 
-from blender_addon.matching.match import NO_SOURCE, SourceRenderer, match, photo_source  # noqa: E402
+from blender_addon.matching.match import NO_SOURCE, SourceRenderer, match, own_source  # noqa: E402
 from blender_addon.matching.refine import into_box, refine_by_render  # noqa: E402
 from vto_core import cli  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
@@ -20,7 +20,7 @@ from vto_core.imageio import read_image, write_image  # noqa: E402
 from vto_core.inference import EncoderSession  # noqa: E402
 from vto_core.metrics import mse  # noqa: E402
 from vto_core.params_io import parse_params  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import HAIR, LIPSTICK, get_spec  # noqa: E402
 
 PARAMS = "opacity,red,green,blue"
 SPEC = get_spec("lipstick", PARAMS)
@@ -182,11 +182,12 @@ def test_a_hair_photo_with_its_mask_is_its_own_source(tmp_path):
     rows = np.linspace(0.1, 0.8, RES, dtype=np.float32)
     photo = np.stack([np.outer(rows, np.ones(RES)), np.full((RES, RES), 0.3), np.outer(np.ones(RES), rows)], -1)
     write_image(tmp_path / "portrait.png", photo, bits=16)
-    assert photo_source(tmp_path / "portrait.png") is None  # no mask yet
+    assert own_source(HAIR, tmp_path / "portrait.png") is None  # no mask yet
     mask = np.zeros((RES, RES), np.float32)
     mask[: RES // 2] = 1.0
     write_image(tmp_path / "portrait_mask.png", mask)
-    assert photo_source(tmp_path / "portrait.png") == str(tmp_path / "portrait.png")
+    assert own_source(HAIR, tmp_path / "portrait.png") == str(tmp_path / "portrait.png")
+    assert own_source(LIPSTICK, tmp_path / "portrait.png") is None  # a lips photo is never its own source
     on_photo = SourceRenderer("hair", str(tmp_path / "portrait.png"), RES)
     stored = read_image(tmp_path / "portrait.png")[0]
     assert np.abs(on_photo.source_image() - stored).max() < 1e-6

@@ -10,9 +10,9 @@ bpy = pytest.importorskip("bpy")
 
 from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
-from blender_addon.matching.photo_fit import (FIT_QUALITY, LIPS_POOL, apparent_colour, iter_fit_photo,  # noqa: E402
-                                              iter_lips_fit_sources, iter_lips_pool, iter_polish_colour,
+from blender_addon.matching.photo_fit import (apparent_colour, iter_fit_photo, iter_polish_colour,  # noqa: E402
                                               photo_values)
+from blender_addon.renderers.product_lipstick import RENDERER as LIPS_SIDE, LIPS_POOL, iter_lips_pool  # noqa: E402
 from blender_addon.matching.refine import drain  # noqa: E402
 from blender_addon.renderers.scene_lips import lips_mask  # noqa: E402
 from blender_addon.scratch import scratch_data  # noqa: E402
@@ -20,7 +20,7 @@ from vto_core.appearance import mean_colour, skin_light  # noqa: E402
 from vto_core.colour import ciede2000, srgb_to_lab  # noqa: E402
 from vto_core.dataset import DEFAULT_SAMPLES  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import HAIR, get_spec  # noqa: E402
 
 RES = 32
 
@@ -42,27 +42,27 @@ def test_the_hair_fit_gives_the_default_hair_the_photos_colour_from_a_far_start(
     fitted = drain(iter_fit_photo(spec, region, start, "BETTER", RES, 8), renders.append)
     after = delta_e(mean_colour(*region), apparent_colour("hair", photo_values(spec, fitted), [900001], RES, 8)["mean"])
     assert before > 15 and after < 3, (before, after)
-    assert renders[-1] == FIT_QUALITY["hair"]["BETTER"][1] and renders == sorted(renders)
+    assert renders[-1] == HAIR.fit.renders["BETTER"][1] and renders == sorted(renders)
     assert set(fitted) == set(spec.modelled)
 
 
 def test_the_shipped_hair_regions_are_the_renders_of_the_fit_sources():
     """The hair regions hair's fits use come from blender_addon/data (no Cycles render in the panel), and they are what
     the hair scene renders for those seeds today (bpy 4.5 made them; bpy 5's Cycles renders them near alike)."""
-    from blender_addon.matching import photo_fit
+    from blender_addon.renderers import product_hair as photo_fit
 
-    photo_fit._hair_region.cache_clear()
+    photo_fit.hair_region.cache_clear()
     with np.load(photo_fit.DATA / photo_fit.FIT_REGIONS) as regions:
         assert int(regions["res"]) == photo_fit.FIT_RES and sorted(regions.files) == sorted(
             ["blender", "res", "samples"] + [f"{k}_{s}" for s in photo_fit.FIT_SOURCES for k in ("rgb", "mask")])
-    shipped = [photo_fit._hair_region(seed, photo_fit.FIT_RES, DEFAULT_SAMPLES) for seed in photo_fit.FIT_SOURCES]
+    shipped = [photo_fit.hair_region(seed, photo_fit.FIT_RES, DEFAULT_SAMPLES) for seed in photo_fit.FIT_SOURCES]
     assert all(r.rgb.shape == (64, 64, 3) and r.rgb.dtype == np.float32 and r.mask.mean() > 0.5 for r in shipped)
     assert min(np.abs(a.rgb - b.rgb).mean() for a, b in zip(shipped, shipped[1:])) > 0.01  # four seeds, four looks
     fresh = render_hair_source(photo_fit.FIT_SOURCES[1], photo_fit.FIT_RES, DEFAULT_SAMPLES, 0)
     assert (fresh.mask == shipped[1].mask).mean() > 0.99
     hair = (fresh.mask > 0.5) & (shipped[1].mask > 0.5)
     assert np.abs(fresh.rgb - shipped[1].rgb)[hair].mean() < 0.002
-    other = photo_fit._hair_region(photo_fit.FIT_SOURCES[1], 32, DEFAULT_SAMPLES)  # not shipped: rendered now
+    other = photo_fit.hair_region(photo_fit.FIT_SOURCES[1], 32, DEFAULT_SAMPLES)  # not shipped: rendered now
     assert other.rgb.shape == (32, 32, 3)
 
 
@@ -83,7 +83,7 @@ def test_the_lips_fit_picks_sources_with_the_photos_skin_and_moves_towards_its_c
     truth = {"opacity": 0.95, "red": 200.0, "green": 60.0, "blue": 110.0, "gloss": 1.0, "reflection": 0.1}
     mask = lips_mask(source, RES)
     region = (render_lipstick(truth, source, RES, 8, 0), mask)
-    chosen = drain(iter_lips_fit_sources(region, 2, RES, 8))
+    chosen = drain(LIPS_SIDE.iter_fit_sources(region, 2, RES, 8))
     photo_skin = skin_light(*region)[1]
     pool_skin = min(ciede2000(photo_skin, lab) for _, lab, _ in drain(iter_lips_pool(RES, 8)))  # bare, as rendered
     toned_skin = [ciede2000(photo_skin, skin_light(*render({"opacity": 0.0}))[1]) for render in chosen]
@@ -100,7 +100,7 @@ def test_the_lips_fit_picks_sources_with_the_photos_skin_and_moves_towards_its_c
 
 def test_a_close_crop_without_skin_uses_the_pools_first_sources_as_they_are():
     lips = np.ones((RES, RES), np.float32)  # lips fill the picture: no skin around them
-    chosen = drain(iter_lips_fit_sources((np.full((RES, RES, 3), 0.5, np.float32), lips), 2, RES, 8))
+    chosen = drain(LIPS_SIDE.iter_fit_sources((np.full((RES, RES, 3), 0.5, np.float32), lips), 2, RES, 8))
     for render, seed in zip(chosen, LIPS_POOL[:2], strict=True):
         np.testing.assert_array_equal(render({"opacity": 0.0})[0], render_lipstick({"opacity": 0.0}, seed, RES, 8, 0))
     assert len(LIPS_POOL) >= 16
@@ -137,7 +137,7 @@ def test_the_fit_starts_from_the_candidate_whose_render_already_shows_the_photo(
     truth = {name: truth.get(name, spec.by_name[name].default) for name in spec.modelled}
     region = (run_hair_stage(photo, truth), photo.mask)
     far = {**truth, "hue": 0.6, "saturation": 2.5, "gamma": 0.7}
-    count, budget = FIT_QUALITY["hair"]["BETTER"]
+    count, budget = HAIR.fit.renders["BETTER"]
     renders = []
     fitted = drain(iter_fit_photo(spec, region, far, "BETTER", RES, 8, others=(truth,)), renders.append)
     assert renders[:2] == [count, 2 * count] and renders[-1] == budget and renders == sorted(renders)
@@ -208,7 +208,7 @@ def test_fast_starts_its_colour_fit_round_the_hue_circle():
     """The encoder reads a near-grey hair's hue at random, and a fit settles where it starts on the circle: Fast's
     colour fit also starts a quarter, a half and three quarters of a turn on, and keeps the fit nearest the photo's
     statistics (a dark grey hair: 15x nearer than from the encoder's hue alone)."""
-    from blender_addon.matching.photo_fit import PRIOR_WEIGHT, colour_imitator_path, fit_colour, fit_start
+    from blender_addon.matching.photo_fit import colour_imitator_path, fit_colour, fit_start
     from blender_addon.shipped import MODELS
     from vto_core.appearance import region_statistics
     from vto_core.colour_imitator import cached_imitator
@@ -221,7 +221,7 @@ def test_fast_starts_its_colour_fit_round_the_hue_circle():
              "shine": 0.21}
     imitator, target = cached_imitator(colour_imitator_path("hair")), region_statistics(*region)
     unit, wraps, held = fit_start(spec, start)
-    one_start = imitator.fit(target, unit, PRIOR_WEIGHT["hair"], wraps, held)
+    one_start = imitator.fit(target, unit, HAIR.fit.prior_weight, wraps, held)
     fitted, note = fit_colour(spec, region, start)
 
     def miss(u):

@@ -19,7 +19,7 @@ from vto_core.imageio import read_image  # noqa: E402
 from vto_core.photo.lips_locator import DEFAULT_LENS, close_up  # noqa: E402
 from vto_core.photo.tryon import feathered  # noqa: E402
 from vto_core.presets import load_presets  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import get_spec  # noqa: E402
 
 FACE = Path(__file__).resolve().parents[3] / "data" / "faces" / "nasa_william_oefelein.jpg"  # train split, bare lips
 SPEC = get_spec("lipstick")

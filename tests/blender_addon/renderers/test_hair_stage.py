@@ -14,7 +14,7 @@ from blender_addon.renderers.cycles import configure_cycles, render_passes  # no
 from vto_core.colour import recolour_swatch  # noqa: E402
 from vto_core.hair import render_hair_reference  # noqa: E402
 from vto_core.metrics import visibility_ratio  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import get_spec  # noqa: E402
 
 SPEC = get_spec("hair")
 CASES = [("defaults", {})] + [

@@ -20,7 +20,7 @@ from blender_addon.renderers.nodes_lipstick import lipstick_group  # noqa: E402
 from vto_core import cli  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import read_image  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import get_spec  # noqa: E402
 
 RES, SAMPLES, BLOCK = 64, 8, 8
 LIPSTICK_BASE = {"opacity": 1.0, "sparkle_density": 0.5}  # makeup on, flakes present, so every input shows

@@ -13,16 +13,16 @@ from blender_addon.datasets.commands import render  # noqa: E402
 from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.renderers.scene_lips import lips_mask  # noqa: E402
 from vto_core.dataset import DEFAULT_SAMPLES  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import get_product, get_spec  # noqa: E402
 from vto_core.visibility import (  # noqa: E402
-                                 BELOW_BAR, VISIBLE_RATIO, measurement_look, parameter_visibility, step_visibility)
+                                 VISIBLE_RATIO, measurement_look, parameter_visibility, step_visibility)
 
 RES, SOURCE = 64, 1
 def _check(renderer, name, ratio, modelled):
     if not modelled:
         return  # left out of the default model, with the reason in the spec
-    if name in BELOW_BAR[renderer]:  # named in `vto spec`; guard the measured ratio against regressions
-        recorded = BELOW_BAR[renderer][name][0]
+    if name in get_product(renderer).below_bar:  # named in `vto spec`; guard the measured ratio against regressions
+        recorded = get_product(renderer).below_bar[name][0]
         assert ratio >= 0.85 * recorded, f"{name}: change/noise {ratio:.2f} fell below its recorded {recorded}"
     else:
         assert ratio >= VISIBLE_RATIO, f"{name}: change/noise {ratio:.2f} < {VISIBLE_RATIO}"

@@ -17,13 +17,12 @@ bpy = pytest.importorskip("bpy")
 
 import blender_addon  # noqa: E402
 from blender_addon.matching import apply  # noqa: E402
-from blender_addon.matching.photo_fit import NOT_OFFERED  # noqa: E402
 from blender_addon.matching.reference import load_reference  # noqa: E402
 from blender_addon.shipped import MODELS  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import read_image, write_image  # noqa: E402
 from vto_core.inference import EncoderSession, cached_session  # noqa: E402
-from vto_core.specs import get_spec  # noqa: E402
+from vto_core.products import HAIR, LIPSTICK, get_spec  # noqa: E402
 
 MODEL = str(apply.default_model("lipstick"))
 SPEC = EncoderSession(MODEL).spec  # whatever the shipped model estimates: read from its metadata
@@ -110,7 +109,7 @@ def material(request):
 def group_node(material):
     if isinstance(material, str):
         material = bpy.data.materials[material]
-    (node,) = apply.lipstick_nodes(material)
+    (node,) = apply.group_nodes(LIPSTICK, material)
     return node
 
 
@@ -186,7 +185,7 @@ def test_add_hair_compositor_wires_both_groups_to_the_outputs():
     scene = bpy.data.scenes.new("Hair Shot")
     with bpy.context.temp_override(scene=scene):
         assert bpy.ops.vto.add_hair_compositor() == {"FINISHED"}
-    nodes = {n.node_tree.name: n for n in apply.hair_nodes(scene)}
+    nodes = {n.node_tree.name: n for n in apply.group_nodes(HAIR, scene)}
     assert set(nodes) == {"VTO Hair Swatch", "VTO Hair Color"}
     color, swatch = nodes["VTO Hair Color"], nodes["VTO Hair Swatch"]
     assert color.outputs[0].links[0].to_node.bl_idname in ("CompositorNodeComposite", "NodeGroupOutput")
@@ -367,7 +366,7 @@ def test_unusual_but_valid_images_are_matched(name, material, odd_files):
 
 
 def test_nan_pixels_are_read_as_zero_with_a_warning(odd_files):
-    job = apply.MatchJob("lipstick", {"image_path": str(odd_files / "nan.exr"), "find_lips": False},
+    job = apply.MatchJob("lipstick", {"image_path": str(odd_files / "nan.exr"), "find_region": False},
                          material_name=new_material())
     assert job.warnings == [f"{odd_files / 'nan.exr'}: 18 NaN or infinite pixel(s) read as 0 (NaN, -inf) or 1 (+inf)"]
     image = job.prepared["reference"].image
@@ -439,7 +438,7 @@ def test_hair_fast_and_better_write_the_compositor_groups(tmp_path):
     write_image(tmp_path / "photo_mask.png", mask)
 
     def values():
-        return {p.name: float(n.inputs[p.socket].default_value) for n in apply.hair_nodes(scene) for p in hair.params
+        return {p.name: float(n.inputs[p.socket].default_value) for n in apply.group_nodes(HAIR, scene) for p in hair.params
                 if p.socket in n.inputs}
 
     with bpy.context.temp_override(scene=scene):
@@ -459,7 +458,7 @@ def test_hair_fast_polishes_as_vto_match_does_and_leaves_nothing_behind(tmp_path
     """The panel's hair Fast with the shipped models: the polish's stage passes run as steps of the operator (a budget
     of FAST_POLISH renders), the values are those `vto match` writes (photo_fit.fit_photo_fast), and the default
     scenes the passes render are gone afterwards."""
-    from blender_addon.matching.photo_fit import FAST_POLISH, fit_photo_fast
+    from blender_addon.matching.photo_fit import fit_photo_fast
     from blender_addon.matching.reference import read_reference
 
     model = str(MODELS / "hair_encoder.onnx")
@@ -471,13 +470,13 @@ def test_hair_fast_polishes_as_vto_match_does_and_leaves_nothing_behind(tmp_path
     write_image(tmp_path / "auburn.png", photo.astype(np.float32), bits=16)
     write_image(tmp_path / "auburn_mask.png", np.ones((24, 24), np.float32))
     settings = {"image_path": str(tmp_path / "auburn.png"), "mask_path": str(tmp_path / "auburn_mask.png")}
-    assert apply.prepare("hair", {**settings, "model_path": model, "quality": "FAST"})["budget"] == FAST_POLISH["hair"]
+    assert apply.prepare("hair", {**settings, "model_path": model, "quality": "FAST"})["budget"] == HAIR.fit.fast_polish
     kinds = ("scenes", "node_groups", "images", "objects", "materials")
     before = {kind: set(getattr(bpy.data, kind).keys()) for kind in kinds}
     with bpy.context.temp_override(scene=scene):
         assert run_match(target="HAIR", model_path=model, **settings)[0] == {"FINISHED"}
     assert {kind: set(getattr(bpy.data, kind).keys()) for kind in kinds} == before
-    written = {p.name: float(n.inputs[p.socket].default_value) for n in apply.hair_nodes(scene)
+    written = {p.name: float(n.inputs[p.socket].default_value) for n in apply.group_nodes(HAIR, scene)
                for p in get_spec("hair").params if p.socket in n.inputs}
     session = EncoderSession(model)
     reference = read_reference("hair", settings)  # as the panel reads it
@@ -528,7 +527,7 @@ def test_match_makes_the_preview_on_photo_and_a_photo_without_a_face_says_so(mat
     target = bpy.data.materials[material]
     assert run_match(material=material, image_path=portrait, find_lips=True) == ({"FINISHED"}, None)
     assert preview.shown(target)[1] == ""  # made after Match, from the values Match wrote
-    values = preview.material_values(target)
+    values = preview.material_values(target)[1]
     assert values["red"] == pytest.approx(inputs_of(material)["red"], abs=1e-3)
     picture = preview.picture(target)
     left, right = picture[:, :preview.SIZE], picture[:, preview.SIZE:]
@@ -602,7 +601,7 @@ def test_hair_is_found_in_a_portrait_by_the_operator_and_no_hair_changes_nothing
         bpy.ops.vto.add_hair_compositor()
 
     def values():
-        return {p.name: float(n.inputs[p.socket].default_value) for n in apply.hair_nodes(scene) for p in hair.params
+        return {p.name: float(n.inputs[p.socket].default_value) for n in apply.group_nodes(HAIR, scene) for p in hair.params
                 if p.socket in n.inputs}
 
     before = values()
@@ -738,9 +737,9 @@ class FakeLayout:
 def test_the_fast_label_says_what_each_fast_renders():
     from blender_addon.ui.panels import quality_cost
 
-    assert quality_cost("lipstick", "FAST") == "Fast: no render, milliseconds"
-    assert quality_cost("hair", "FAST") == "Fast: 3 stage passes, 0.3-1 s"  # photo_fit.FAST_POLISH, FIT_SECONDS
-    assert quality_cost("hair", "BETTER") == "Better: 100 renders, 2-6 s"
+    assert quality_cost(LIPSTICK, "FAST") == "Fast: no render, milliseconds"
+    assert quality_cost(HAIR, "FAST") == "Fast: 3 stage passes, 0.3-1 s"  # HAIR.fit: fast_polish, seconds
+    assert quality_cost(HAIR, "BETTER") == "Better: 100 renders, 2-6 s"
 
 
 def test_the_panels_draw_every_control_and_the_last_estimate(material, reference):
@@ -750,9 +749,9 @@ def test_the_panels_draw_every_control_and_the_last_estimate(material, reference
     bpy.types.VTO_PT_match_material.draw(SimpleNamespace(layout=FakeLayout(log)), context)
     shown = {entry[1] for entry in log if entry[0] == "prop"}
     assert {"image_path", "use_crop", "mask_path", "model_path"} <= shown
-    assert {"find_lips"} <= shown
-    assert [entry[1] for entry in log if entry[0] == "enum"] == ["FAST", "BETTER"]  # photo_fit.OFFERED
-    assert ("label", NOT_OFFERED["lipstick"]) in log  # and it says why not Best
+    assert {"find_region"} <= shown
+    assert [entry[1] for entry in log if entry[0] == "enum"] == ["FAST", "BETTER"]  # LIPSTICK.fit.offered
+    assert ("label", LIPSTICK.fit.not_offered) in log  # and it says why not Best
     assert any(entry[1] == "Fast: no render, milliseconds" for entry in log if entry[0] == "label")
     assert ("operator", "vto.match_from_photo") in log
     assert run_match(material=material, image_path=reference)[0] == {"FINISHED"}
@@ -819,11 +818,11 @@ def test_the_modal_refinement_writes_only_at_the_end_and_esc_changes_nothing(tmp
                               event_timer_remove=lambda timer: None)
     context = SimpleNamespace(window_manager=manager)
     monkeypatch.setattr(operators, "TICK_SECONDS", 0.0)  # one render per tick
-    before = {s.name: s.default_value for n in apply.hair_nodes(scene) for s in n.inputs if s.name in
+    before = {s.name: s.default_value for n in apply.group_nodes(HAIR, scene) for s in n.inputs if s.name in
               {p.socket for p in hair.params}}
 
     def values():
-        return {s.name: s.default_value for n in apply.hair_nodes(scene) for s in n.inputs if s.name in before}
+        return {s.name: s.default_value for n in apply.group_nodes(HAIR, scene) for s in n.inputs if s.name in before}
 
     cancelled = Modal()
     assert cancelled.modal(context, SimpleNamespace(type="TIMER")) == {"RUNNING_MODAL"} and progress == [2]

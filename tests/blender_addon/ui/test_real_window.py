@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vto_core.specs import get_spec
+from vto_core.products import get_spec
 
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 

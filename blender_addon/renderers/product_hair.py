@@ -1,0 +1,127 @@
+"""The hair colour's Blender side: the VTO Hair Swatch / Color compositor stage, the default hair scene, hair photos."""
+
+from __future__ import annotations
+
+import functools
+import os
+from pathlib import Path
+
+import numpy as np
+
+from vto_core.dataset import DEFAULT_SAMPLES
+from vto_core.errors import VtoError
+from vto_core.products import HAIR
+
+from ..shipped import DATA
+from .products import FIT_RES, BoundSource, ProductRenderer
+
+# Default-scene seeds the photo fits render on, in order: apart from the benchmarks' sources 0-7 and eval's 5000 and up.
+FIT_SOURCES = (900001, 900002, 900003, 900004)
+# FIT_SOURCES' hair regions at FIT_RES and DEFAULT_SAMPLES, rendered by scripts/render_fit_regions.py: a render in the
+# panel's click took 2 s and could meet a material preview's render thread (Blender 4.3 then deadlocks).
+FIT_REGIONS = "hair_fit_regions.npz"
+DARK_HAIR = 0.05  # mean luma of the recoloured swatch below this: the presets Dark Brown (0.047) and darker
+
+
+@functools.lru_cache(maxsize=16)
+def hair_region(source: int, res: int, samples: int):
+    """blender_addon.renderers.hair.HairSource of default-scene `source`'s hair region: FIT_SOURCES' at FIT_RES and
+    DEFAULT_SAMPLES as shipped (FIT_REGIONS: hair's fits render nothing in Cycles), any other rendered now."""
+    from .hair import HairSource, render_hair_source
+
+    if source in FIT_SOURCES and res == FIT_RES and samples == DEFAULT_SAMPLES:
+        with np.load(DATA / FIT_REGIONS) as regions:
+            return HairSource(regions[f"rgb_{source}"].astype(np.float32),
+                              regions[f"mask_{source}"].astype(np.float32))
+    return render_hair_source(source, res, samples, 0)
+
+
+class HairRenderer(ProductRenderer):
+    """VTO Hair Color: a two-pass compositor stage that matches the hair's histogram to a recoloured swatch."""
+
+    product = HAIR
+    fit_sources = FIT_SOURCES
+
+    def check_source(self, source):
+        seed_like = isinstance(source, (int, np.integer)) or str(source).isdigit()
+        if not seed_like and not Path(source).is_file():
+            raise VtoError(f"hair source {source} is neither a default-scene seed nor a photo")
+
+    def bind(self, source, res, samples, seed, lighting=None):
+        from .hair import resolve_hair_source, run_hair_stage
+
+        self.check_source(source)
+        hair = resolve_hair_source(source, res, samples, seed)
+        own_photo = not (isinstance(source, (int, np.integer)) or str(source).isdigit())
+        return BoundSource(lambda values: run_hair_stage(hair, values), lambda: hair.rgb, lambda: hair.mask, own_photo)
+
+    def region_renderer(self, source, res, samples, tones=None):
+        from .hair import run_hair_stage
+
+        hair = hair_region(source, res, samples)
+        return lambda values: (run_hair_stage(hair, values), hair.mask)
+
+    def iter_fit_sources(self, region, count, res, samples):
+        """FIT_SOURCES' hair regions, in order (shipped at FIT_RES: nothing renders)."""
+        return [self.region_renderer(seed, res, samples) for seed in FIT_SOURCES[:count]]
+        yield  # a generator, as the other products' (nothing to wait for)
+
+    def fit_held(self, spec, start):
+        from .hair import own_source_held
+
+        return own_source_held(spec, start)
+
+    def nodes(self, scene):
+        from ..compat import compositor_tree
+        from .nodes_hair import COLOR_GROUP, SWATCH_GROUP
+
+        tree = compositor_tree(scene) if scene is not None else None
+        if tree is None:
+            return []
+        return [n for n in tree.nodes if n.bl_idname == "CompositorNodeGroup" and n.node_tree is not None
+                and n.node_tree.name.startswith((SWATCH_GROUP, COLOR_GROUP))]
+
+    def where(self, scene):
+        return f"the compositor of scene '{scene.name}'"
+
+    def missing_group(self, scene):
+        return f"scene '{scene.name}' has no VTO hair compositor groups (add them with Add VTO Hair Compositor)"
+
+    def is_dark(self, values):
+        from vto_core.colour import luminance
+        from vto_core.hair import swatch_target
+
+        from .hair import load_swatch
+
+        return float(luminance(swatch_target(load_swatch(), values)).mean()) < DARK_HAIR
+
+    def dataset_images(self, values, source, res, samples, cycles_seed, options):
+        from .hair import load_photo_source, render_hair_source, run_hair_stage
+
+        photos, cache = options.get("photos"), options.get("cache")
+        if photos:
+            hair_source = load_photo_source(photos[source % len(photos)], res)
+        elif cache is not None:
+            hair_source = cached_hair_source(Path(cache), source, res, samples, cycles_seed)
+        else:
+            hair_source = render_hair_source(source, res, samples, cycles_seed)
+        return hair_source.rgb, [run_hair_stage(hair_source, v) for v in values], {"mask": hair_source.mask}
+
+
+def cached_hair_source(folder: Path, source: int, res: int, samples: int, cycles_seed: int):
+    """The hair source of a group of looks: rendered once, kept in `folder` (written atomically)."""
+    from .hair import HairSource, render_hair_source
+
+    path = folder / f"{source}.npz"
+    if path.is_file():
+        with np.load(path) as cached:
+            return HairSource(cached["rgb"], cached["mask"])
+    hair_source = render_hair_source(source, res, samples, cycles_seed)
+    path.parent.mkdir(exist_ok=True)
+    temporary = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npz")
+    np.savez(temporary, rgb=hair_source.rgb, mask=hair_source.mask)
+    os.replace(temporary, path)
+    return hair_source
+
+
+RENDERER = HairRenderer()

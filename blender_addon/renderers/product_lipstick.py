@@ -1,0 +1,137 @@
+"""The lipstick's Blender side: the VTO Lipstick group in a material, the default lips scene, its try-on on a photo."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vto_core.products import LIPSTICK
+
+from .products import BoundSource, ProductRenderer
+
+# Default-scene seeds the photo fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up; the fit
+# takes those whose skin is most like the photo's.
+LIPS_POOL = tuple(range(900001, 900025))
+MAX_TONE_RATIO = 4.0  # a source's skin tone is scaled (linear, per channel) by at most this either way
+DARK_LIPSTICK = 60.0  # max(R, G, B) below this (of 255) is a very dark shade
+
+_LIPS_POOLS: dict[tuple[int, int], tuple] = {}
+
+
+def iter_lips_pool(res: int, samples: int):
+    """The lipstick fit's candidate sources, rendered bare once per session and size: (seed, its skin's mean CIELAB
+    (3,), its skin's mean linear RGB (3,)) each (vto_core.appearance.skin_light, skin_colour). A generator: yields 0
+    after each source (the UI stays live; these renders are not the fit's), returns the pool."""
+    from vto_core.appearance import skin_colour, skin_light
+
+    from .lipstick import render_lipstick
+    from .scene_lips import lips_mask
+
+    if (res, samples) not in _LIPS_POOLS:
+        pool = []
+        for seed in LIPS_POOL:
+            mask = lips_mask(seed, res)
+            bare = render_lipstick({"opacity": 0.0}, seed, res, samples, 0)
+            pool.append((seed, skin_light(bare, mask)[1], skin_colour(bare, mask)))
+            yield 0
+        _LIPS_POOLS[(res, samples)] = tuple(pool)
+    return _LIPS_POOLS[(res, samples)]
+
+
+def fitted_tones(seed: int, rendered_skin: np.ndarray, photo_skin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Skin and bare-lips sRGB tones (3,) for default source `seed` such that its rendered skin, whose mean linear
+    RGB with its own tone is `rendered_skin` (3,), shows `photo_skin` (3,, linear): the seed's skin tone scaled per
+    channel (within MAX_TONE_RATIO), the lips the scene's typical lips for that skin (scene_lips.lip_tone)."""
+    from vto_core.colour import linear_to_srgb, srgb_to_linear
+
+    from .scene_lips import lip_tone, source_tones
+
+    ratio = np.clip(np.asarray(photo_skin, np.float64) / np.maximum(rendered_skin, 1e-6), 1 / MAX_TONE_RATIO,
+                    MAX_TONE_RATIO)
+    skin = linear_to_srgb(np.clip(srgb_to_linear(source_tones(seed)[0]) * ratio, 0.0, 1.0))
+    return skin, lip_tone(skin)
+
+
+class LipstickRenderer(ProductRenderer):
+    """VTO Lipstick: a shader node group in a material, rendered with Cycles on the default lips scene."""
+
+    product = LIPSTICK
+    fit_sources = LIPS_POOL
+
+    def bind(self, source, res, samples, seed, lighting=None):
+        from .lipstick import render_lipstick
+        from .scene_lips import lips_mask
+
+        self.check_source(source)
+        source = int(source)
+
+        def render(values):
+            return render_lipstick(values, source, res, samples, seed, lighting=lighting)
+
+        return BoundSource(render, lambda: render({"opacity": 0.0}), lambda: lips_mask(source, res, lighting))
+
+    def region_renderer(self, source, res, samples, tones=None):
+        from .lipstick import render_lipstick
+        from .scene_lips import lips_mask
+
+        mask = lips_mask(source, res)
+        return lambda values: (render_lipstick(values, source, res, samples, 0, tones=tones), mask)
+
+    def iter_fit_sources(self, region, count, res, samples):
+        """The `count` default lips sources whose skin looks most like the photo's (CIEDE2000 of the skin around the
+        lips), each toned (fitted_tones) so its skin shows the photo's skin colour."""
+        from vto_core.appearance import skin_colour, skin_light
+        from vto_core.colour import ciede2000
+
+        light, photo_skin = skin_light(*region), skin_colour(*region)
+        pool = yield from iter_lips_pool(res, samples)
+        if light is None:  # a close crop shows no skin: the first sources as they are
+            return [self.region_renderer(seed, res, samples) for seed, _, _ in pool[:count]]
+        order = np.argsort([ciede2000(light[1], lab) for _, lab, _ in pool])
+        return [self.region_renderer(pool[i][0], res, samples, fitted_tones(pool[i][0], pool[i][2], photo_skin))
+                for i in order[:count]]
+
+    def nodes(self, material):
+        from ..compat import uses_nodes
+        from .nodes_lipstick import GROUP_NAME
+
+        if material is None or not uses_nodes(material) or material.node_tree is None:
+            return []
+        return [n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeGroup" and n.node_tree is not None
+                and n.node_tree.name.startswith(GROUP_NAME)]
+
+    def where(self, material):
+        return f"material '{material.name}'"
+
+    def missing_group(self, material):
+        return (f"material '{material.name}' does not use the 'VTO Lipstick' node group (add one with Add VTO "
+                "Lipstick Material)")
+
+    def tryon_view(self, photo, values, size, samples, seed):
+        from .tryon import tryon_view
+
+        return tryon_view(photo, values, size, samples, seed)
+
+    def tryon(self, photo, values, crop, samples, seed):
+        from .tryon import tryon_lipstick
+
+        return tryon_lipstick(photo, values, crop=crop, samples=samples, seed=seed, in_place=True)
+
+    def is_dark(self, values):
+        return max(values["red"], values["green"], values["blue"]) < DARK_LIPSTICK
+
+    def dataset_images(self, values, source, res, samples, cycles_seed, options):
+        from .lipstick import render_lipstick
+        from .scene_lips import lips_mask
+
+        def draw(v):
+            return render_lipstick(v, source, res, samples, cycles_seed, scene=options.get("scene"),
+                                   lighting=options.get("lighting"))
+
+        bare = draw({**values[0], "opacity": 0.0}) if options.get("source_images", True) else None
+        extra = {}
+        if options.get("masks"):
+            extra["mask"] = lips_mask(source, res, options.get("lighting")).astype(np.float32)
+        return bare, [draw(v) for v in values], extra
+
+
+RENDERER = LipstickRenderer()

@@ -1,0 +1,110 @@
+"""Each product's Blender side, one object a product (blender_addon.renderers.product_<name>), found from its
+declaration (vto_core.products): code above the renderers asks it, never the product's name."""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+
+import numpy as np
+
+from vto_core.errors import VtoError
+from vto_core.products import Product, get_product
+from vto_core.specs import RendererSpec
+
+FIT_RES = 64  # px: the default-scene renders photo fits compare statistics on
+
+
+class ProductRenderer:
+    """What the add-on needs of a product in Blender; one subclass a product, its module's RENDERER.
+
+    Regions are (image (H, W, 3), mask (H, W)); values are raw parameter values; sources are default-scene seeds
+    (or, where the product's photo is its own source, a photo with its mask beside it).
+    """
+
+    product: Product
+    fit_sources: tuple[int, ...] = ()  # default-scene seeds the photo fits render on, apart from the benchmarks'
+
+    def check_source(self, source) -> None:
+        """A one-line error for a source this product cannot render on."""
+        if not (isinstance(source, (int, np.integer)) or str(source).isdigit()):
+            raise VtoError(f"{self.product.name} sources are seeds of the default {self.product.region} scene (an "
+                           f"integer), got '{source}'")
+
+    def render(self, values: dict[str, float], source, res: int, samples: int, seed: int,
+               lighting: str | None = None) -> np.ndarray:
+        """R(X, g) on `source`: (res, res, 3) display-sRGB float32."""
+        return self.bind(source, res, samples, seed, lighting).render(values)
+
+    def bind(self, source, res: int, samples: int, seed: int, lighting: str | None = None) -> "BoundSource":
+        """R(X, .) on one fixed source, its source image and its region mask."""
+        raise NotImplementedError
+
+    def region_renderer(self, source: int, res: int, samples: int, tones=None
+                        ) -> Callable[[dict[str, float]], tuple[np.ndarray, np.ndarray]]:
+        """values -> (render (res, res, 3), its region mask (res, res)) on default-scene `source`."""
+        raise NotImplementedError
+
+    def iter_fit_sources(self, region: tuple[np.ndarray, np.ndarray], count: int, res: int, samples: int):
+        """The default-scene region renderers a photo fit renders on, `count` of them; a generator (yields 0 while it
+        renders what it needs once a session), returns the list."""
+        raise NotImplementedError
+
+    def fit_held(self, spec: RendererSpec, start: dict[str, float]) -> dict[int, float] | None:
+        """{position in spec.modelled: unit value} a photo fit holds (what a photo fixes), or None."""
+        return None
+
+    def nodes(self, target) -> list:
+        """The product's group nodes in `target` (a material, or a scene's compositor); [] when it has none."""
+        raise NotImplementedError
+
+    def where(self, target) -> str:
+        """How a message names `target`: "material 'Lips'"."""
+        raise NotImplementedError
+
+    def missing_group(self, target) -> str:
+        """The one line for a target that holds no group of the product (and how to add one)."""
+        raise NotImplementedError
+
+    def tryon_view(self, photo: np.ndarray, values: dict[str, float], size: int, samples: int, seed: int):
+        """(the photo around the region, the product tried on it), each (size, size, 3); products with a try-on."""
+        raise VtoError(f"{self.product.name} has no try-on yet")
+
+    def tryon(self, photo: np.ndarray, values: dict[str, float], crop: int | None, samples: int, seed: int
+              ) -> np.ndarray:
+        """The photo (H, W, 3) wearing `values` (with `crop` = n: the region framed as Match frames it, (n, n, 3));
+        `photo` may be changed in place. Products with a try-on."""
+        raise VtoError(f"{self.product.name} has no try-on yet")
+
+    def is_dark(self, values: dict[str, float]) -> bool:
+        """A very dark product (the evaluation's 'dark' bucket)."""
+        return False
+
+    def dataset_images(self, values: list[dict[str, float]], source: int, res: int, samples: int, cycles_seed: int,
+                       options: dict):
+        """One dataset sample's renders: (source image or None, [render of each of `values`], {name: extra image});
+        options: the DatasetJob's 'lighting', 'scene' (a user scene), 'source_images', 'masks', 'photos' (hair
+        sources), 'cache' (a folder where looks sharing a source keep its render, or None)."""
+        raise NotImplementedError
+
+
+class BoundSource:
+    """R(X, .) on one fixed source X: render(values) -> (res, res, 3); source_image() is X as the imitator sees it;
+    mask is the region's mask (res, res); own_photo says whether X is a photo (its own source)."""
+
+    def __init__(self, render: Callable, source_image: Callable, mask: Callable, own_photo: bool = False):
+        self.render, self._source_image, self._mask, self.own_photo = render, source_image, mask, own_photo
+
+    def source_image(self) -> np.ndarray:
+        return self._source_image()
+
+    @property
+    def mask(self) -> np.ndarray:
+        return self._mask()
+
+
+def blender_side(product: Product | str) -> ProductRenderer:
+    """The Blender side of `product` (a declaration or a name): its module's RENDERER."""
+    product = get_product(product) if isinstance(product, str) else product
+    module = importlib.import_module(product.blender_module, __package__)
+    return module.RENDERER

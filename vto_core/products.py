@@ -1,0 +1,180 @@
+"""The products (lipstick, hair): each declared once, without bpy; code above asks the declaration, never the name.
+
+A product is one frozen `Product`: its parameter spec, whether it is a material's node group or a compositor stage, the
+region it reads in a photo, what a photo fixes, its fit policy (the qualities, what each costs, which are offered),
+its visibility look and its training views. Its Blender side (how it renders, its sources, its node group, its try-on)
+is one object in the add-on's renderers room, named here by `blender_module` (blender_addon.renderers.products).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+from .errors import VtoError
+from .hair import PHOTO_HAIR
+from .specs import RendererSpec, hair_spec, lipstick_spec
+
+QUALITIES = ("FAST", "BETTER", "BEST")  # the panel's choice: the encoder (with its colour fit, where it pays), or a fit
+MATERIAL, COMPOSITOR = "MATERIAL", "COMPOSITOR"  # where a product's renderer lives: a material's node group, or a stage
+
+
+def frozen(mapping: Mapping | None = None) -> Mapping:
+    """A read-only copy of `mapping` (a declaration's tables cannot be changed by the code that reads them)."""
+    return MappingProxyType(dict(mapping or {}))
+
+
+@dataclass(frozen=True)
+class FaceRegion:
+    """A region of the 468-point face mesh, given by its loops (each a closed polygon of landmark indices, outer
+    first); holes (the mouth between the lips) are the loops after the first."""
+
+    name: str  # what the panel and the notes call it: "lips"
+    loops: tuple[tuple[int, ...], ...]
+
+
+@dataclass(frozen=True)
+class FitPolicy:
+    """How a photo of the product is fitted: Fast, Better and Best, what each costs and which the panel offers."""
+
+    renders: Mapping[str, tuple[int, int]]  # BETTER / BEST -> (default-scene sources, renders in all)
+    seconds: Mapping[str, tuple[float, float]]  # quality -> (seconds, seconds the first time in a session), 2-core CPU
+    offered: tuple[str, ...]  # the qualities the panel offers: those that beat the one below them
+    not_offered: str = ""  # what the panel says of a quality it leaves out
+    prior_weight: float = 8.0  # CIELAB units a unit of distance from the fit's start costs
+    fast_fits: bool = False  # whether Fast fits the colour imitator after the encoder
+    fast_polish: int = 0  # stage passes that polish Fast's colour fit (where fast_fits)
+
+    @property
+    def polish_passes(self) -> int:
+        """The passes Fast's polish takes (none where Fast does not fit)."""
+        return self.fast_polish if self.fast_fits else 0
+
+
+@dataclass(frozen=True)
+class Product:
+    """One product: everything above the renderers asks this, never the product's name."""
+
+    name: str  # the command-line and ONNX-metadata name: "lipstick"
+    label: str  # the panel's: "Lipstick"
+    spec: RendererSpec
+    stage: str  # MATERIAL (a shader node group in a material) or COMPOSITOR (a compositor stage of the scene)
+    region: str  # what a photo shows of it, as the panel and the notes say: "lips", "hair"
+    face_region: FaceRegion | None  # where the face mesh has it; None: found by its own locator (the hair)
+    fit: FitPolicy
+    target: str  # the Match operator's target id: "MATERIAL" (kept from before there were several material products)
+    group_text: str  # how the panel names its group: "'VTO Lipstick' group"
+    blender_module: str  # its Blender side: a module of blender_addon.renderers (".lipstick"), or an absolute one
+    photo_fixes: Mapping[str, float] = field(default_factory=frozen)  # what a match sets, whatever the photo shows
+    photo_is_own_source: bool = False  # a photo with '<name>_mask' beside it is its own source (histogram matching)
+    fits_in_photo_scene: bool = False  # Better and Best fit a face's photo in its own scene (photo_scene_fit)
+    lightings: bool = False  # its default scene takes --lighting (wide or portrait)
+    user_scenes: bool = False  # `vto dataset --blend` renders an artist's scene that uses its group
+    photo_datasets: bool = False  # `vto dataset --photos` tries its looks on portraits
+    masks: bool = False  # `vto dataset --masks` writes its default scene's region mask (others always do, or none)
+    shared_sources: bool = False  # `--looks-per-source`: consecutive looks may share one default-scene source render
+    renders_source: bool = True  # the source image X is a render of its own (opacity 0); else it comes with the look
+    look: Mapping[str, float] = field(default_factory=frozen)  # the visibility look's base values
+    below_bar: Mapping[str, tuple[float, str]] = field(default_factory=frozen)  # modelled though under the bar: ratio, why
+    layer_looks: bool = False  # a visibility look adds the layer an input acts on (flakes, a coat)
+    mouth_views: bool = False  # its encoder may train on open mouths with teeth painted over the region
+    tryon: bool = False  # it can be tried on a photo (`vto tryon`, Preview on Photo, batch's sheet)
+    asset_library: bool = False  # `vto batch` writes its presets as materials of an asset library
+    no_library: str = ""  # why it has none
+    smoke_params: tuple[str, ...] = ()  # what `vto demo --size smoke` models: what a tiny encoder learns in a minute
+
+    @property
+    def target_item(self) -> tuple[str, str, str]:
+        """The Match operator's target (id, name, tooltip)."""
+        if self.is_material:
+            return self.target, f"{self.label} Material", f"The {self.group_text} of a material"
+        return self.target, f"{self.label} Compositor", f"The {self.group_text} of the scene's compositor"
+
+    @property
+    def is_material(self) -> bool:
+        """Whether its renderer is a shader node group inside a material (else a compositor stage)."""
+        return self.stage == MATERIAL
+
+    def photo_values(self, values: Mapping[str, float]) -> dict[str, float]:
+        """`values` with what a photo fixes (photo_fixes) set."""
+        return {**values, **self.photo_fixes}
+
+    def written(self, spec: RendererSpec | None = None) -> list[str]:
+        """The parameters a match with `spec` (default: the product's) writes: the modelled ones, then what a photo
+        fixes."""
+        modelled = (spec or self.spec).modelled
+        return list(modelled) + [name for name in self.photo_fixes if name not in modelled]
+
+
+LIPS = FaceRegion("lips", (
+    # The canonical MediaPipe FACEMESH_LIPS loops (face_landmarks_to_render_data_calculator.cc): outer, then inner.
+    (61, 146, 91, 181, 84, 17, 314, 405, 321, 375, 291, 409, 270, 269, 267, 0, 37, 39, 40, 185),
+    (78, 95, 88, 178, 87, 14, 317, 402, 318, 324, 308, 415, 310, 311, 312, 13, 82, 81, 80, 191),
+))
+
+# Seconds are measured on a 2-core CPU (benchmarks/results/photo_sources.md and real_window.md, rounded up). Lips:
+# Better and Best fit in the photo's own scene (photo_scene_fit: 25 renders at 64 px, 100 at 96 px); lipstick renders
+# cost ~0.15 s at 64 px. Better (1.1 dB over Fast on the held-out faces' round trip) is offered; Best gains 0.9, no
+# more than Better, so it stays on `vto match --quality best`. Fast does not fit the colour imitator: that fit moves the
+# estimate until the default scene shows the photo's colour, light and skin included, and loses to the encoder alone on
+# renders with the source hidden (-5.3 dB; benchmarks/results/light.md).
+LIPSTICK = Product(
+    "lipstick", "Lipstick", lipstick_spec(), MATERIAL, "lips", LIPS,
+    FitPolicy(renders=frozen({"BETTER": (1, 25), "BEST": (2, 100)}),
+              seconds=frozen({"BETTER": (3, 11), "BEST": (12, 18)}),
+              offered=("FAST", "BETTER"), not_offered="Best: no closer than Better for lips", prior_weight=8.0),
+    "MATERIAL", "'VTO Lipstick' group", ".product_lipstick", fits_in_photo_scene=True, lightings=True, user_scenes=True, photo_datasets=True, masks=True,
+    look=frozen({"opacity": 1.0}), layer_looks=True, mouth_views=True, tryon=True, asset_library=True,
+    smoke_params=("opacity", "red", "green", "blue"))
+
+# Hair's statistics depend on the swatch alone (the stage matches the hair's histogram to it), not on a scene: a weaker
+# pull lets the fit go further, and Fast's colour fit gains (+9.7 dB, hair_encoder.md), its mean colour then polished
+# on 3 passes of the real stage (the imitator is a few CIELAB units off where some fits settle). The stage costs ~10 ms
+# a source; its fit regions are shipped renders. Fast: 0.38-0.42 s a click in the real window, 1.3 s once after an undo.
+HAIR = Product(
+    "hair", "Hair", hair_spec(), COMPOSITOR, "hair", None,
+    FitPolicy(renders=frozen({"BETTER": (2, 100), "BEST": (4, 400)}),
+              seconds=frozen({"FAST": (0.3, 1), "BETTER": (2, 6), "BEST": (6, 10)}),
+              offered=QUALITIES, prior_weight=2.0, fast_fits=True, fast_polish=3),
+    "HAIR", "VTO hair groups", ".product_hair", photo_fixes=frozen(PHOTO_HAIR), photo_is_own_source=True, shared_sources=True, renders_source=False,
+    no_library=("hair is a two-pass compositor stage fitted to each photo's own hair, not a material: its products are "
+                "in the presets (vto render hair --params preset:NAME@presets.json)"),
+    smoke_params=("brightness", "hue", "saturation", "intensity"))
+
+PRODUCTS: dict[str, Product] = {product.name: product for product in (LIPSTICK, HAIR)}
+
+
+def product_names() -> list[str]:
+    """The declared products' names, in declaration order (every command's choices)."""
+    return list(PRODUCTS)
+
+
+def get_product(name: str) -> Product:
+    """The declaration of `name`; an unknown name is one line that lists the products."""
+    try:
+        return PRODUCTS[name]
+    except (KeyError, TypeError):
+        raise VtoError(f"unknown product '{name}'; choose from {', '.join(PRODUCTS)}") from None
+
+
+def product_of_target(target: str) -> Product:
+    """The product the Match operator's `target` id names."""
+    return next(p for p in PRODUCTS.values() if p.target == target)
+
+
+def get_spec(renderer: str, params: str | list[str] | None = None) -> RendererSpec:
+    """The built-in spec of product `renderer`, optionally with only `params` modelled."""
+    try:
+        spec = PRODUCTS[renderer].spec
+    except (KeyError, TypeError):
+        raise VtoError(f"unknown renderer '{renderer}'; choose from {', '.join(PRODUCTS)}") from None
+    return spec.select(params) if params else spec
+
+
+def declare(product: Product) -> Product:
+    """Add `product` to the registry (a product declared outside this module, e.g. a plug-in's); returns it."""
+    if product.name in PRODUCTS and PRODUCTS[product.name] is not product:
+        raise VtoError(f"a product '{product.name}' is already declared")
+    PRODUCTS[product.name] = product
+    return product
