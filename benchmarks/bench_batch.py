@@ -10,8 +10,8 @@ from pathlib import Path
 
 from benchmarks.common import machine, write_table
 from blender_addon.matching.batch import estimate_images, list_images, model_fingerprint
-from blender_addon.datasets.commands import render
-from blender_addon.matching.reference import load_reference
+from blender_addon.renderers.products import render
+from vto_core.photo.photo_reader import load_reference
 from vto_core import cli
 from vto_core.imageio import resize, write_image
 from vto_core.inference import EncoderSession

@@ -40,14 +40,15 @@ def estimates(session, region: tuple[np.ndarray, np.ndarray], qualities) -> dict
     """quality -> (all values, ms): the encoder on the region's largest hair square fitted through the colour imitator
     (Fast), or through the stage from it or the encoder's (Better); as a Match does
     (blender_addon.matching.apply.iter_compute)."""
-    from blender_addon.matching.photo_fit import fit_photo_fast, iter_fit_photo, photo_values
-    from blender_addon.matching.reference import hair_reference
+    from blender_addon.matching.photo_fit import iter_fit_photo, photo_values
+    from blender_addon.matching.colour_fit import fit_photo_fast
+    from blender_addon.shipped import photo_reader
     from blender_addon.matching.refine import drain
 
     spec, found = session.spec, {}
     for quality in qualities:
         started = time.perf_counter()
-        reference = hair_reference(region[0], mask=region[1])
+        reference = photo_reader().hair_reference(region[0], mask=region[1])
         encoder = {k: v for k, v in session.predict(reference.image)[0].items() if k in spec.modelled}
         values = photo_values(spec, fit_photo_fast(spec, reference.region, encoder, quality=quality)[0])
         if quality != "FAST":

@@ -40,18 +40,21 @@ HAIR_SHOWN = 0.05  # of a tight crop that its hand-drawn hair must cover for the
 def finding(photo: np.ndarray) -> tuple[object, object, float, float]:
     """(the face, the hair found or the VtoError, face ms, hair ms), each timed warm (the second of two runs). The
     hair is found in the photo's light read beside the lips, as the product finds it (that reading is not timed)."""
-    from blender_addon.matching.reference import locate_hair, locate_lips, read_face
+    from blender_addon.shipped import photo_reader
     from vto_core.errors import VtoError
+    from vto_core.photo.face_reader import cached_reader
     from vto_core.photo.photo_light import light_of
+
+    reader = photo_reader()
 
     for _ in range(2):
         started = time.perf_counter()
-        face = read_face(photo)
+        face = cached_reader(reader.detector, reader.landmarks).read(photo)  # not kept: each run reads it
         face_ms = 1000 * (time.perf_counter() - started)
-        light = light_of(photo, locate_lips(photo, face).mask) if face is not None else None
+        light = light_of(photo, reader.locate_lips(photo, face).mask) if face is not None else None
         started = time.perf_counter()
         try:
-            hair = locate_hair(photo, face, light) if face is not None else VtoError("no face")
+            hair = reader.locate_hair(photo, face, light) if face is not None else VtoError("no face")
         except VtoError as exc:
             hair = exc
         hair_ms = 1000 * (time.perf_counter() - started)
@@ -176,7 +179,7 @@ def crop_row(record: dict, crop: np.ndarray, drawn: np.ndarray, qualities: list[
 
 def run_crops(records: list[dict], qualities: list[str], work: Path) -> tuple[list, dict, list]:
     """Rows of the tight crops' table, their figures, their picture cells (one row per photo)."""
-    from blender_addon.matching.reference import read_face
+    from blender_addon.shipped import photo_reader
 
     drawn_masks = load_records()
     figures = {key: [] for key in ("iou", "colour", "hair_ms", "shown", "held_out")}
@@ -185,7 +188,7 @@ def run_crops(records: list[dict], qualities: list[str], work: Path) -> tuple[li
     for record in records:
         photo = load_photo(record, PHOTOS.parent)
         height, width = photo.shape[:2]
-        x0, y0, x1, y1 = tight_crop(read_face(photo), height, width)
+        x0, y0, x1, y1 = tight_crop(photo_reader().face_of(photo), height, width)
         drawn = rasterise(drawn_masks[record["file"]], height, width)[y0:y1, x0:x1]
         row, cells = crop_row(record, np.ascontiguousarray(photo[y0:y1, x0:x1]), drawn, qualities, work, figures)
         rows.append(row)

@@ -2,7 +2,7 @@
 
 Fresh looks (opacity >= 0.5) rendered at 128 px on fresh default sources; each reference and its lips mask written as
 PNG and read back through the panel's own path (blender_addon.matching.reference.read_reference: the mask framed by
-lips_frame), against the whole render and against the mask's own box (what the panel did before: the box stretched
+region_frame), against the whole render and against the mask's own box (what the panel did before: the box stretched
 to the encoder's square). Reports the median |error| of R, G and B in 8-bit steps into
 benchmarks/results/mask_crop.md.
 
@@ -24,7 +24,7 @@ FIRST_SOURCE = 7000
 
 def run(model: str, n: int, seed: int) -> str:
     """The table as markdown."""
-    from blender_addon.datasets.commands import render
+    from blender_addon.renderers.products import render
     from blender_addon.matching.reference import read_reference
     from blender_addon.renderers.scene_lips import lips_mask
     from vto_core.imageio import resize, write_image
@@ -34,7 +34,7 @@ def run(model: str, n: int, seed: int) -> str:
     spec, session = get_spec("lipstick"), EncoderSession(model)
     size = session.input_size[0]
     rng = np.random.default_rng(seed)
-    errors = {"whole render": [], "the mask's own box (before)": [], "the panel's mask path (lips_frame)": []}
+    errors = {"whole render": [], "the mask's own box (before)": [], "the panel's mask path (region_frame)": []}
     with tempfile.TemporaryDirectory() as folder:
         for index in range(n):
             unit = rng.random(spec.size)
@@ -49,7 +49,7 @@ def run(model: str, n: int, seed: int) -> str:
             rows, cols = np.nonzero(mask)
             views = {"whole render": image,
                      "the mask's own box (before)": image[rows.min():rows.max() + 1, cols.min():cols.max() + 1],
-                     "the panel's mask path (lips_frame)": read_reference({"image_path": str(image_path),
+                     "the panel's mask path (region_frame)": read_reference({"image_path": str(image_path),
                                                                            "mask_path": str(mask_path)})[0]}
             for name, view in views.items():
                 estimate = session.predict(resize(view, size, size))[0]

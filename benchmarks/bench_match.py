@@ -39,7 +39,8 @@ def measure(cold_runs: int, warm_runs: int, encoder_runs: int) -> tuple[list[lis
 
     import blender_addon
     from blender_addon.matching import apply
-    from blender_addon.matching.reference import load_reference
+    from blender_addon.renderers.products import blender_side
+    from vto_core.photo.photo_reader import load_reference
     from vto_core import inference
     from vto_core.imageio import resize, write_image
 
@@ -51,7 +52,7 @@ def measure(cold_runs: int, warm_runs: int, encoder_runs: int) -> tuple[list[lis
     mesh.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0)], [], [(0, 1, 2)])
     obj = bpy.data.objects.new("Bench Lips", mesh)
     bpy.context.scene.collection.objects.link(obj)
-    material = apply.add_lipstick_material(obj).name
+    material = blender_side("lipstick").add_group(obj).name
     rng = np.random.default_rng(0)
     with tempfile.TemporaryDirectory() as tmp:
         reference = str(Path(tmp) / "reference.png")
@@ -97,14 +98,14 @@ def measure_hair(folder: Path, photo: np.ndarray) -> list[list]:
     """The shipped hair encoder on a photo with a mask, in the scene compositor: Fast (warm) and Better (25 renders)."""
     import bpy
 
-    from blender_addon.matching import apply
+    from blender_addon.renderers.products import blender_side
     from vto_core.imageio import write_image
 
     write_image(folder / "portrait.png", photo, bits=16)
     mask = np.zeros(photo.shape[:2], np.float32)
     mask[: photo.shape[0] * 2 // 3] = 1.0
     write_image(folder / "portrait_mask.png", mask)
-    apply.add_hair_compositor(bpy.context.scene)
+    blender_side("hair").add_group(bpy.context.scene)
     settings = {"target": "HAIR", "image_path": str(folder / "portrait.png"),
                 "mask_path": str(folder / "portrait_mask.png")}
 

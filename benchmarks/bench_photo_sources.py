@@ -247,7 +247,7 @@ def sweep_slope(reads: list[np.ndarray], channel: str) -> float:
 
 def sweep(models: dict[str, Path], work: Path, renders: Renders) -> str:
     """Part (b2): the lips alone changed, on every portrait and on default renders."""
-    from blender_addon.datasets.commands import render
+    from blender_addon.renderers.products import render
     from blender_addon.matching.reference import read_reference
     from blender_addon.renderers.scene_lips import lips_mask
     from vto_core.imageio import read_image, write_image

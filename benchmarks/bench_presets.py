@@ -30,7 +30,7 @@ def match_presets(model: str, sources: range, lighting: str | None, res: int = 6
                   overrides: dict[str, float] | None = None) -> dict[str, dict]:
     """preset -> {'set': (3,), 'estimates': (S, 3), 'errors': (S, 3)} for every lipstick preset, rendered with its
     values updated by `overrides`."""
-    from blender_addon.datasets.commands import render
+    from blender_addon.renderers.products import render
     from vto_core.inference import EncoderSession
     from vto_core.presets import load_presets
 

@@ -112,7 +112,7 @@ def lips_cell(reference) -> np.ndarray:
 
 def run_lips(records: list[dict], folder: Path, qualities: list[str], work: Path) -> tuple[list, list, list]:
     """Rows of the lips table, the speed rows (quality, ms, delta E) and the picture rows."""
-    from blender_addon.datasets.commands import render
+    from blender_addon.renderers.products import render
     from blender_addon.matching.photo_fit import apparent_colour
     from blender_addon.matching.reference import read_reference
     from vto_core.appearance import body_colour, mean_colour

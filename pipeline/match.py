@@ -23,7 +23,7 @@ def imitator_inputs(refiner, renderer: str, source, reference: np.ndarray, sampl
                     lighting: str | None = None):
     """(X, reference) at the imitator's size: X rendered (or loaded) there, the reference resized."""
     from blender_addon.matching.match import SourceRenderer
-    from blender_addon.matching.reference import at_size
+    from vto_core.photo.photo_reader import at_size
 
     height, width = refiner.image_size
     if height != width:
@@ -41,7 +41,7 @@ def refine_with_imitator(spec: RendererSpec, imitator_run: str, source, referenc
 
 
 def cmd_match(argv: list[str]) -> int:
-    """vto match, as blender_addon.matching.match.cmd_match, with --refine imitator:K available."""
-    from blender_addon.matching.match import cmd_match as addon_cmd_match
+    """vto match, as blender_addon.matching.commands.cmd_match, with --refine imitator:K available."""
+    from blender_addon.matching.commands import cmd_match as addon_cmd_match
 
     return addon_cmd_match(argv, imitator_refine=refine_with_imitator)

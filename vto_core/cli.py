@@ -19,14 +19,14 @@ COMMANDS = {
     "spec": ("vto_core.cli", "cmd_spec", "print a renderer's (selected) parameter spec as JSON"),
     "sample": ("vto_core.cli", "cmd_sample", "print sampled parameter vectors as JSON lines"),
     "presets": ("vto_core.cli", "cmd_presets", "list a renderer's expert presets"),
-    "render": ("blender_addon.datasets.commands", "cmd_render", "render one image with Blender (needs bpy)"),
+    "render": ("blender_addon.renderers.commands", "cmd_render", "render one image with Blender (needs bpy)"),
     "dataset": ("blender_addon.datasets.commands", "cmd_dataset",
                 "render a training dataset, sharded and resumable (needs bpy)"),
     "train": ("training.cli", "cmd_train", "train the imitator or the encoder (needs torch)"),
     "export": ("training.cli", "cmd_export", "export an encoder run to ONNX"),
     "scene-params": ("blender_addon.renderers.scene_params", "cmd_scene_params",
                      "list which lipstick group inputs visibly change a user's scene (needs bpy)"),
-    "tryon": ("blender_addon.datasets.commands", "cmd_tryon", "draw a lipstick onto a portrait's lips (needs bpy)"),
+    "tryon": ("blender_addon.renderers.commands", "cmd_tryon", "draw a lipstick onto a portrait's lips (needs bpy)"),
     "match": ("pipeline.match", "cmd_match", "estimate a renderer's parameters from a reference image"),
     "batch": ("blender_addon.matching.batch", "cmd_batch",
               "estimate a folder of product photos: median presets, an asset library, a contact sheet"),
@@ -35,7 +35,7 @@ COMMANDS = {
                                           "evaluation, HTML report (needs bpy and torch)"),
 }
 # Pipeline commands the add-on serves itself inside Blender, where the pipeline and training layers are absent.
-IN_BLENDER = {"match": ("blender_addon.matching.match", "cmd_match")}
+IN_BLENDER = {"match": ("blender_addon.matching.commands", "cmd_match")}
 
 
 class ArgumentParser(argparse.ArgumentParser):

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import VtoError
+from .products import get_product
 from .specs import RendererSpec
 
 PRESET_DIR = Path(__file__).parent / "presets"
@@ -15,7 +16,7 @@ PRESET_DIR = Path(__file__).parent / "presets"
 
 def load_presets(renderer: str, path: str | Path | None = None) -> dict[str, dict[str, float]]:
     """Preset name -> raw parameter values (only the values the preset sets)."""
-    path = Path(path) if path else PRESET_DIR / f"{renderer}.json"
+    path = Path(path or get_product(renderer).presets or PRESET_DIR / f"{renderer}.json")
     try:
         data = json.loads(path.read_text())
         if data["renderer"] != renderer:

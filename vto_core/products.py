@@ -32,6 +32,7 @@ class FaceRegion:
 
     name: str  # what the panel and the notes call it: "lips"
     loops: tuple[tuple[int, ...], ...]
+    frame_share: float  # the share of its square's width it spans where the default scene frames it (the encoder's view)
 
 
 @dataclass(frozen=True)
@@ -82,6 +83,7 @@ class Product:
     tryon: bool = False  # it can be tried on a photo (`vto tryon`, Preview on Photo, batch's sheet)
     asset_library: bool = False  # `vto batch` writes its presets as materials of an asset library
     no_library: str = ""  # why it has none
+    presets: str = ""  # its expert presets file; "": vto_core/presets/<name>.json
     smoke_params: tuple[str, ...] = ()  # what `vto demo --size smoke` models: what a tiny encoder learns in a minute
 
     @property
@@ -111,7 +113,10 @@ LIPS = FaceRegion("lips", (
     # The canonical MediaPipe FACEMESH_LIPS loops (face_landmarks_to_render_data_calculator.cc): outer, then inner.
     (61, 146, 91, 181, 84, 17, 314, 405, 321, 375, 291, 409, 270, 269, 267, 0, 37, 39, 40, 185),
     (78, 95, 88, 178, 87, 14, 317, 402, 318, 324, 308, 415, 310, 311, 312, 13, 82, 81, 80, 191),
-))
+    # The default lips scene frames the lips in a square whose width they span this share of (scene_lips.lips_mask over
+    # sources 0-7 at 64 px: 0.73-0.84). A lips mask is framed alike, so the encoder sees lips at the scale it was
+    # trained on: the mask's own box, stretched to a square, gave 1.7-2.5x the colour error (results/mask_crop.md).
+), 0.78)
 
 # Seconds are measured on a 2-core CPU (benchmarks/results/photo_sources.md and real_window.md, rounded up). Lips:
 # Better and Best fit in the photo's own scene (photo_scene_fit: 25 renders at 64 px, 100 at 96 px); lipstick renders

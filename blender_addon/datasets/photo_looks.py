@@ -22,7 +22,7 @@ import numpy as np
 from vto_core.errors import VtoError
 from vto_core.imageio import jpeg_round_trip, read_image, resize
 from vto_core.inference import shrink
-from vto_core.photo.framing import lips_view, view_cut
+from vto_core.photo.framing import region_view, view_cut
 from vto_core.photo.photo_light import light_of, relit
 
 from ..renderers.tryon import on_photo, photo_lips, product_ratio
@@ -83,7 +83,7 @@ def camera_view(seed: int, index: int) -> CameraView:
                       bool(rng.uniform() < MIRROR_CHANCE))
 
 
-def face_of(seed: int, index: int, count: int) -> int:
+def face_index(seed: int, index: int, count: int) -> int:
     """Which of `count` faces look `index` is tried on: BLOCK consecutive looks each, blocks in a shuffled order."""
     block = index // BLOCK
     order = np.random.default_rng([seed, block // count]).permutation(count)
@@ -93,7 +93,7 @@ def face_of(seed: int, index: int, count: int) -> int:
 def match_read(photo: np.ndarray, lips, view: CameraView, res: int, scratch: Path) -> np.ndarray:
     """What Match reads of a made-up `photo` (H, W, 3) whose lips are `lips` (LipsFound), seen through `view`:
     (res, res, 3) display. Only the part around the lips is worked on (the light is read beside them)."""
-    frame, size, _ = lips_view(lips)
+    frame, size, _ = region_view(lips)
     centre = frame @ np.array([size / 2, size / 2, 1.0])
     side = size * view.zoom
     jittered = frame.copy()
@@ -142,7 +142,7 @@ class PhotoLooks:
     def look(self, index: int, values: dict[str, float], source_image: bool
              ) -> tuple[np.ndarray | None, np.ndarray, dict]:
         """Look `index` wearing `values`: (its source X, the made-up photo as Match reads it, what the record notes)."""
-        number, target, bare = self.face(face_of(self.seed, index, len(self.faces)))
+        number, target, bare = self.face(face_index(self.seed, index, len(self.faces)))
         ratio, bare = product_ratio(target, values, self.samples, index, bare=bare, bare_seed=BARE_SEED)
         self._face = (number, target, bare)
         view = camera_view(self.seed, index)

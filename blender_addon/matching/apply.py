@@ -38,7 +38,8 @@ from vto_core.specs import RendererSpec
 
 from ..renderers.products import blender_side
 from ..shipped import MODELS
-from .photo_fit import NO_REGION, QUALITIES, fast_polish_passes, iter_fit_photo, iter_fit_photo_fast, photo_values
+from .photo_fit import NO_REGION, QUALITIES, iter_fit_photo, photo_values
+from .colour_fit import fast_polish_passes, iter_fit_photo_fast
 from .reference import absolute_path, read_reference
 from .refine import drain
 
@@ -288,61 +289,3 @@ def describe(spec: RendererSpec, values: dict[str, float]) -> list[str]:
 
     return [f"{spec.by_name[name].socket}: {shown(value)}" + (f" {spec.by_name[name].unit}" if spec.by_name[name].unit
                                                              else "") for name, value in values.items()]
-
-
-# --- the starting points ------------------------------------------------------------------------------------------
-
-LIPSTICK_MATERIAL = "VTO Lipstick"
-
-
-def add_lipstick_material(obj):
-    """A new "VTO Lipstick" material on `obj` (a mesh): a Principled BSDF (the bare lips) -> the lipstick group ->
-    Material Output, appended to its slots and made active. Returns the material."""
-
-    from ..renderers.nodes_lipstick import lipstick_material
-
-    if obj is None or obj.type != "MESH":
-        raise VtoError("select a mesh object to add the lipstick material to")
-    material = lipstick_material(LIPSTICK_MATERIAL)
-    obj.data.materials.append(material)
-    obj.active_material_index = len(obj.material_slots) - 1
-    return material
-
-
-def add_hair_compositor(scene) -> list:
-    """The two hair groups in `scene`'s compositor, wired: the hair swatch image -> "VTO Hair Swatch" -> Viewer (the
-    recoloured swatch), the render -> "VTO Hair Color" -> Composite (a hair mask goes into its Mask input; Gradient
-    stays 1, the whole hair). Returns the two group nodes."""
-    import bpy
-
-    from ..compat import composite_output, compositor_tree
-    from ..renderers.hair import SWATCH_PATH
-    from ..renderers.nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, swatch_group
-
-    tree = compositor_tree(scene, create=True)
-    nodes, links = tree.nodes, tree.links
-    def existing(idname: str):
-        return next((n for n in nodes if n.bl_idname == idname), None) or nodes.new(idname)
-
-    render, output = existing("CompositorNodeRLayers"), composite_output(tree)
-    swatch_image = nodes.new("CompositorNodeImage")
-    swatch_image.name = swatch_image.label = "VTO Hair Swatch Image"
-    swatch_image.image = bpy.data.images.load(str(SWATCH_PATH), check_existing=True)
-    mask_image = nodes.new("CompositorNodeImage")
-    mask_image.name = mask_image.label = "VTO Hair Mask (choose an image)"
-    swatch = nodes.new("CompositorNodeGroup")
-    swatch.name = swatch.label = SWATCH_GROUP
-    swatch.node_tree = swatch_group()
-    color = nodes.new("CompositorNodeGroup")
-    color.name = color.label = COLOR_GROUP
-    color.node_tree = color_group()
-    color.inputs["Mask"].default_value = 1.0
-    color.inputs["Gradient"].default_value = 1.0
-    viewer = existing("CompositorNodeViewer")
-    links.new(swatch_image.outputs["Image"], swatch.inputs["Image"])
-    links.new(swatch.outputs[0], viewer.inputs[0])
-    links.new(render.outputs["Image"], color.inputs["Image"])
-    links.new(color.outputs[0], output)
-    mask_image.location, color.location, output.node.location = (-400, -300), (0, 0), (300, 0)
-    swatch_image.location, swatch.location, viewer.location = (-400, 300), (0, 300), (300, 300)
-    return [swatch, color]

@@ -29,13 +29,15 @@ from vto_core.dataset import DEFAULT_SAMPLES, write_text_atomic
 from vto_core.errors import VtoError, failure_line
 from vto_core.imageio import write_image
 from vto_core.inference import EncoderSession
+from vto_core.photo.photo_reader import at_size
 from vto_core.products import get_product
 from vto_core.specs import ParamSpec, RendererSpec
 
 from ..renderers.products import blender_side
 from .match import own_source
-from .photo_fit import fit_photo_fast, photo_values
-from .reference import at_size, read_reference
+from .photo_fit import photo_values
+from .colour_fit import fit_photo_fast
+from .reference import read_reference
 
 ESTIMATES = "estimates"
 READER = 3  # how photos are read (3: the light read from the skin and taken out, lips Fast the encoder): older
@@ -124,7 +126,7 @@ def _cache_key(image: Path, fingerprint: str) -> dict:
 
 def fast_values(spec, reference, values: dict[str, float]) -> dict[str, float]:
     """What Fast writes for a photo: the encoder's `values`, for hair fitted through the colour imitator (where the
-    photo's region is known), with what a photo fixes (blender_addon.matching.photo_fit.fit_photo_fast)."""
+    photo's region is known), with what a photo fixes (blender_addon.matching.colour_fit.fit_photo_fast)."""
     if reference.region is not None:
         values = fit_photo_fast(spec, reference.region, {k: values[k] for k in spec.modelled})[0]
     return spec.full_values(photo_values(spec, values))
@@ -243,7 +245,7 @@ def parse_args(argv: list[str]):
 def render_products(renderer: str, presets: dict, products: dict[str, list[Path]], args) -> dict[str, np.ndarray]:
     """A render of each preset: on default scene `--source`, or on its first photo where that is its own source
     (hair, with a mask)."""
-    from ..datasets.commands import render
+    from ..renderers.products import render
 
     product = get_product(renderer)
     return {name: render(renderer, values, own_source(product, products[name][0]) or args.source,

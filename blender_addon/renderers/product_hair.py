@@ -47,6 +47,11 @@ class HairRenderer(ProductRenderer):
         if not seed_like and not Path(source).is_file():
             raise VtoError(f"hair source {source} is neither a default-scene seed nor a photo")
 
+    def render(self, values, source, res, samples, seed, lighting=None):
+        from .hair import render_hair
+
+        return render_hair(values, source, res, samples, seed)  # a missing photo: "cannot read image ..."
+
     def bind(self, source, res, samples, seed, lighting=None):
         from .hair import resolve_hair_source, run_hair_stage
 
@@ -80,6 +85,44 @@ class HairRenderer(ProductRenderer):
             return []
         return [n for n in tree.nodes if n.bl_idname == "CompositorNodeGroup" and n.node_tree is not None
                 and n.node_tree.name.startswith((SWATCH_GROUP, COLOR_GROUP))]
+
+    def add_group(self, scene) -> list:
+        """The two hair groups in `scene`'s compositor, wired: the hair swatch image -> "VTO Hair Swatch" -> Viewer (the
+        recoloured swatch), the render -> "VTO Hair Color" -> Composite (a hair mask goes into its Mask input; Gradient
+        stays 1, the whole hair). Returns the two group nodes."""
+        import bpy
+
+        from ..compat import composite_output, compositor_tree
+        from .hair import SWATCH_PATH
+        from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, swatch_group
+
+        tree = compositor_tree(scene, create=True)
+        nodes, links = tree.nodes, tree.links
+        def existing(idname: str):
+            return next((n for n in nodes if n.bl_idname == idname), None) or nodes.new(idname)
+
+        render, output = existing("CompositorNodeRLayers"), composite_output(tree)
+        swatch_image = nodes.new("CompositorNodeImage")
+        swatch_image.name = swatch_image.label = "VTO Hair Swatch Image"
+        swatch_image.image = bpy.data.images.load(str(SWATCH_PATH), check_existing=True)
+        mask_image = nodes.new("CompositorNodeImage")
+        mask_image.name = mask_image.label = "VTO Hair Mask (choose an image)"
+        swatch = nodes.new("CompositorNodeGroup")
+        swatch.name = swatch.label = SWATCH_GROUP
+        swatch.node_tree = swatch_group()
+        color = nodes.new("CompositorNodeGroup")
+        color.name = color.label = COLOR_GROUP
+        color.node_tree = color_group()
+        color.inputs["Mask"].default_value = 1.0
+        color.inputs["Gradient"].default_value = 1.0
+        viewer = existing("CompositorNodeViewer")
+        links.new(swatch_image.outputs["Image"], swatch.inputs["Image"])
+        links.new(swatch.outputs[0], viewer.inputs[0])
+        links.new(render.outputs["Image"], color.inputs["Image"])
+        links.new(color.outputs[0], output)
+        mask_image.location, color.location, output.node.location = (-400, -300), (0, 0), (300, 0)
+        swatch_image.location, swatch.location, viewer.location = (-400, 300), (0, 300), (300, 300)
+        return [swatch, color]
 
     def where(self, scene):
         return f"the compositor of scene '{scene.name}'"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from vto_core.errors import VtoError
 from vto_core.products import LIPSTICK
 
 from .products import BoundSource, ProductRenderer
@@ -98,6 +99,18 @@ class LipstickRenderer(ProductRenderer):
             return []
         return [n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeGroup" and n.node_tree is not None
                 and n.node_tree.name.startswith(GROUP_NAME)]
+
+    def add_group(self, obj):
+        """A new "VTO Lipstick" material on `obj` (a mesh): a Principled BSDF (the bare lips) -> the lipstick group ->
+        Material Output, appended to its slots and made active. Returns the material."""
+        from .nodes_lipstick import lipstick_material
+
+        if obj is None or obj.type != "MESH":
+            raise VtoError("select a mesh object to add the lipstick material to")
+        material = lipstick_material("VTO Lipstick")
+        obj.data.materials.append(material)
+        obj.active_material_index = len(obj.material_slots) - 1
+        return material
 
     def where(self, material):
         return f"material '{material.name}'"

@@ -8,8 +8,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
-from vto_core.products import Product, get_product
+from vto_core.products import Product, get_product, get_spec
 from vto_core.specs import RendererSpec
 
 FIT_RES = 64  # px: the default-scene renders photo fits compare statistics on
@@ -56,6 +57,11 @@ class ProductRenderer:
 
     def nodes(self, target) -> list:
         """The product's group nodes in `target` (a material, or a scene's compositor); [] when it has none."""
+        raise NotImplementedError
+
+    def add_group(self, owner):
+        """Add the product's group where it lives: a new material on mesh `owner` (returned), or the stage's groups in
+        scene `owner`'s compositor, wired (returned)."""
         raise NotImplementedError
 
     def where(self, target) -> str:
@@ -108,3 +114,19 @@ def blender_side(product: Product | str) -> ProductRenderer:
     product = get_product(product) if isinstance(product, str) else product
     module = importlib.import_module(product.blender_module, __package__)
     return module.RENDERER
+
+
+def render(renderer: str, values: dict[str, float], source, res: int = 64, samples: int = DEFAULT_SAMPLES,
+           seed: int = 0, lighting: str | None = None):
+    """R(X, g) of product `renderer`: (res, res, 3) display-sRGB float32; values are checked strictly.
+
+    lighting: the default scene's, "wide" or "portrait" (None: the default), where the product has lightings (lips);
+    the others have only their own.
+    """
+    values = get_spec(renderer).check_values(values)
+    product = get_product(renderer)
+    if lighting is not None and not product.lightings:
+        from .lighting import ONLY_LIPS
+
+        raise VtoError(ONLY_LIPS)
+    return blender_side(product).render(values, source, res, samples, seed, lighting)

@@ -2,7 +2,7 @@
 AR renderer, as a photo source).
 
 The lips are found as Match finds them (vto_core.photo.lips_locator, on the shipped face models) and framed as Match
-frames them (vto_core.photo.framing.lips_view). Cycles renders the photo lips scene (scene_photo) in that frame,
+frames them (vto_core.photo.framing.region_view). Cycles renders the photo lips scene (scene_photo) in that frame,
 bare and wearing the product, under the light read from the photo's skin; the photo times their ratio, inside the
 lips' soft mask, is the try-on (vto_core.photo.tryon.composite). Every pixel outside the soft mask is the photo's.
 
@@ -21,13 +21,14 @@ from vto_core.colour import linear_to_srgb, srgb_to_linear
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.photo.face_reader import apply_matrix, clean_photo, polygon_mask, sample_bilinear
-from vto_core.photo.framing import lips_view, square_view, view_box, view_cut
-from vto_core.photo.lips_locator import LIP_INNER, LIP_OUTER, lips_mask
+from vto_core.photo.framing import region_view, square_view, view_box, view_cut
+from vto_core.photo.face_regions import region_mask
+from vto_core.photo.lips_locator import LIP_INNER, LIP_OUTER
 from vto_core.photo.photo_light import light_of
 from vto_core.photo.tryon import composite, feathered, lips_mesh, worn_over_bare
 from vto_core.products import get_spec
 
-from ..shipped import locate_lips
+from ..shipped import photo_reader
 from .cycles import configure_cycles, render_passes
 from .lipstick import set_lipstick_values
 from .scene_photo import build_photo_scene, set_light_and_lips, set_lips
@@ -43,7 +44,7 @@ def find_lips(photo: np.ndarray):
     """The lips of the largest face of (H, W, 3) (vto_core.photo.lips_locator.LipsFound); VtoError 'no face found
     ...' where there is no face, or its lips are too small to render onto."""
     try:
-        lips = locate_lips(photo)
+        lips = photo_reader().locate_lips(photo)
     except VtoError:
         lips = None
     return lips_to_render(lips)
@@ -82,7 +83,7 @@ def photo_lips(photo: np.ndarray, n: int | None = None, lips=None) -> PhotoLips:
     the frame's own size, at most 2 x MAX_RENDER). VtoError 'no face found ...' (find_lips, lips_to_render)."""
     photo = clean_photo(photo)  # no copy of a clean photo (a 64-megapixel one is 768 MB)
     lips = find_lips(photo) if lips is None else lips_to_render(lips)
-    view, size, _ = lips_view(lips)
+    view, size, _ = region_view(lips)
     n = n or min(size, MAX_RENDER * 2)
     view = view.copy()
     view[:, :2] *= size / n  # the same frame seen at n x n
@@ -90,7 +91,7 @@ def photo_lips(photo: np.ndarray, n: int | None = None, lips=None) -> PhotoLips:
     points = apply_matrix(to_frame, lips.landmarks.astype(np.float64))
     photo_scale = np.sqrt(abs(np.linalg.det(view[:, :2])))  # photo px per frame px
     depth = None if lips.depth is None else lips.depth / photo_scale
-    mask, _ = lips_mask(points[LIP_OUTER], points[LIP_INNER], n, n)
+    mask, _ = region_mask([points[LIP_OUTER], points[LIP_INNER]], n, n)
     return PhotoLips(photo, lips, light_of(photo, lips.mask).cast, n, to_frame, points, depth,
                      view_cut(photo, view, n), mask)
 

@@ -13,6 +13,7 @@ from vto_core.errors import VtoError, failure_line
 from vto_core.products import PRODUCTS, product_of_target
 
 from ..matching import apply
+from ..renderers.products import blender_side
 from . import preview
 from .preferences import preference_model
 from .properties import QUALITY_ITEMS, remember, settings_dict
@@ -36,7 +37,7 @@ class VTO_OT_add_lipstick_material(bpy.types.Operator):
     def execute(self, context):
         obj = bpy.data.objects.get(self.object_name) if self.object_name else context.object
         try:
-            material = apply.add_lipstick_material(obj)
+            material = blender_side("lipstick").add_group(obj)
         except VtoError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -56,10 +57,21 @@ class VTO_OT_add_hair_compositor(bpy.types.Operator):
         return context.scene is not None
 
     def execute(self, context):
-        nodes = apply.add_hair_compositor(context.scene)
+        nodes = blender_side("hair").add_group(context.scene)
         self.report({"INFO"}, f"added {' and '.join(n.name for n in nodes)} to the compositor of "
                               f"'{context.scene.name}'")
         return {"FINISHED"}
+
+
+_TARGET_ITEMS: list = []  # Blender keeps no copy of a callback's enum strings: they live here
+
+
+def target_items(self, context) -> list:
+    """The Match operator's targets, one a declared product (vto_core.products), the first the default."""
+    items = [product.target_item for product in PRODUCTS.values()]
+    if items != _TARGET_ITEMS:
+        _TARGET_ITEMS[:] = items
+    return _TARGET_ITEMS
 
 
 class VTO_OT_match_from_photo(bpy.types.Operator):
@@ -69,8 +81,7 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
     bl_label = "Match"
     bl_options = {"REGISTER", "UNDO"}
 
-    target: EnumProperty(name="Target", items=[p.target_item for p in PRODUCTS.values()],
-                         default=next(iter(PRODUCTS.values())).target)
+    target: EnumProperty(name="Target", items=target_items)
     material: StringProperty(name="Material", default="", description="Material name (default: the active one)")
     image_path: StringProperty(name="Image", subtype="FILE_PATH", description="Reference photo (default: the panel's)")
     image_name: StringProperty(name="Image Datablock", default="", description="An image of this .blend instead")

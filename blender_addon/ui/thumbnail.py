@@ -9,10 +9,11 @@ import numpy as np
 
 from vto_core.errors import VtoError
 from vto_core.photo.face_reader import apply_matrix
-from vto_core.photo.framing import lips_view
+from vto_core.photo.framing import region_view
+from vto_core.photo.photo_reader import crop_box, load_reference
 
-from ..matching.reference import (absolute_path, crop_box, datablock_pixels, load_reference, read_mask,
-                                  region_reference)
+from ..matching.reference import absolute_path, datablock_pixels, read_mask
+from ..shipped import photo_reader
 from .properties import find_region
 
 SIZE = 128  # pixels of the square thumbnail
@@ -80,7 +81,7 @@ def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None, hai
     if lips is not None:  # the outer contour: at thumbnail size a mouth is a few pixels, the inner one would fill it
         outline(canvas, np.asarray(lips.outer, np.float64) * scale + (left, top), LIPS_COLOUR, width=1)
         if lips.how == "face":  # the frame the encoder reads, turned with a tilted face, on the photo as shown
-            view, size, turn = lips_view(lips)
+            view, size, turn = region_view(lips)
             if turn:
                 corners = apply_matrix(view, np.array([[0, 0], [size, 0], [size, size], [0, size]], np.float64))
                 outline(canvas, corners * scale + (left, top), CROP_COLOUR)
@@ -122,7 +123,7 @@ def icon(props, name: str, product) -> tuple[int, str]:
         lips, hair, note = None, None, ""
         if key[-1]:
             try:  # as Match will find them
-                found = region_reference(product, reference, crop)
+                found = photo_reader().region_reference(product, reference, crop)
                 lips, hair, note = found.lips, found.hair, "; ".join(found.notes)
             except VtoError as exc:
                 note = str(exc)

@@ -202,8 +202,9 @@ def test_extension_builds_installs_and_runs_the_cli(tmp_path):
     assert str(site) in report["sys_path"]
     assert not [p for p in report["sys_path"] if "_vendor" in p or str(installed) in p]
     assert not report["blender_addon_alias"], "no sys.modules alias: the CLI is told the extension's package"
-    assert report["commands"] == ["bl_ext.user_default.vto_match.datasets.commands",
-                                  "bl_ext.user_default.vto_match.matching.match"]
+    assert report["commands"] == ["bl_ext.user_default.vto_match.matching.commands",
+                                  "bl_ext.user_default.vto_match.matching.match",
+                                  "bl_ext.user_default.vto_match.renderers.commands"]
     for model in ("lipstick_encoder.onnx", "lipstick_encoder.md", "hair_encoder.onnx", "hair_encoder.md"):
         assert (installed / "models" / model).is_file()
     assert (site / "vto_core" / "presets" / "lipstick.json").is_file()
@@ -226,7 +227,7 @@ def test_extension_builds_installs_and_runs_the_cli(tmp_path):
     from vto_core.inference import EncoderSession
     from vto_core.products import get_spec
 
-    from blender_addon.matching.photo_fit import fit_photo_fast
+    from blender_addon.matching.colour_fit import fit_photo_fast
     from blender_addon.matching.reference import read_reference
 
     # the panel's Fast on the render (a close-up of lips): the encoder, fitted through the shipped colour imitator

@@ -93,7 +93,7 @@ def test_a_compared_encoder_is_evaluated_on_the_same_references(evaluated):
 
 def test_the_comparison_renders_on_source_b_with_the_truths_cycles_seed(evaluated):
     """Re-rendering one look's truth and mean-preset estimate on B reproduces the recorded PSNR."""
-    from blender_addon.datasets.commands import render
+    from blender_addon.renderers.products import render
 
     out, _ = evaluated
     look = json.loads((out / "results.json").read_text())["looks"][1]
@@ -105,7 +105,7 @@ def test_the_comparison_renders_on_source_b_with_the_truths_cycles_seed(evaluate
 
 def test_a_search_seed_offset_moves_what_methods_render_on_a_off_the_references_noise(models, tmp_path):
     """With --search-seed-offset the nearest preset is the closest of the presets rendered on seed + offset."""
-    from blender_addon.datasets.commands import render
+    from blender_addon.renderers.products import render
     from vto_core.metrics import mse
 
     out = tmp_path / "offset"

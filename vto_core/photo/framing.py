@@ -11,14 +11,11 @@ import math
 
 import numpy as np
 
+from ..products import LIPS, FaceRegion
 from .face_reader import apply_matrix, roll_of, square_matrix, warp
 from .photo_light import neutral_photo
 
 MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that an estimate is made from
-# The default lips scene frames the lips in a square whose width they span this share of (lips_mask over sources 0-7
-# at 64 px: 0.73-0.84). A lips mask is framed alike, so the encoder sees lips at the scale it was trained on: the
-# mask's own box, stretched to a square, gave 1.7-2.5x the colour error (benchmarks/results/mask_crop.md).
-LIPS_WIDTH_SHARE = 0.78
 # A face rolled more than this is framed turned upright (lips and hair) before the encoder reads it; below it the frame
 # stays on the pixel grid (no resampling). The 18 portraits' own rolls are -9 to 3 degrees, 14 of them within 5.
 ROLL_TOLERANCE = math.radians(5)
@@ -40,15 +37,13 @@ def cut_read(whole: np.ndarray, box: tuple[int, int, int, int], light) -> np.nda
     return neutral_photo(part, light)
 
 
-def lips_frame(mask: np.ndarray) -> tuple[int, int, int, int]:
-    """(x, y, w, h) of the square that frames a lips mask (H, W) as the default lips scene frames the lips.
-
-    Centred on the mask's box, whose width is LIPS_WIDTH_SHARE of the side (at least the box's height and MIN_SIZE);
-    shrunk to the image's shorter side and moved inside the image where it would not fit.
-    """
+def region_frame(mask: np.ndarray, width_share: float) -> tuple[int, int, int, int]:
+    """(x, y, w, h) of the square that frames a region's mask (H, W) as the default scene frames the region: centred
+    on the mask's box, whose width is `width_share` of the side (at least the box's height and MIN_SIZE); shrunk to the
+    image's shorter side and moved inside the image where it would not fit."""
     rows, cols = np.nonzero(mask)
     height, width = mask.shape
-    side = max(math.ceil((cols.max() + 1 - cols.min()) / LIPS_WIDTH_SHARE), rows.max() + 1 - rows.min(), MIN_SIZE)
+    side = max(math.ceil((cols.max() + 1 - cols.min()) / width_share), rows.max() + 1 - rows.min(), MIN_SIZE)
     side = min(side, height, width)
     centre_y, centre_x = (rows.min() + rows.max() + 1) / 2, (cols.min() + cols.max() + 1) / 2
     y = min(max(int(round(centre_y - side / 2)), 0), height - side)
@@ -62,12 +57,12 @@ def face_roll(landmarks) -> float:
     return roll if abs(roll) > ROLL_TOLERANCE else 0.0
 
 
-def turned_lips_square(outer: np.ndarray, angle: float) -> tuple[np.ndarray, float]:
-    """lips_frame for lips turned by `angle` rad: the outer contour (K, 2) measured along the face's own axes ->
-    (centre (2,), side px) of the square that frames them as the default lips scene frames them."""
+def turned_square(outer: np.ndarray, angle: float, width_share: float) -> tuple[np.ndarray, float]:
+    """region_frame for a region turned by `angle` rad: its outer loop (K, 2) measured along the face's own axes ->
+    (centre (2,), side px) of the square that frames it as the default scene frames it."""
     across, down = np.array([math.cos(angle), math.sin(angle)]), np.array([-math.sin(angle), math.cos(angle)])
     along, below = np.asarray(outer, np.float64) @ across, np.asarray(outer, np.float64) @ down
-    side = max(math.ceil(np.ptp(along) / LIPS_WIDTH_SHARE), float(np.ptp(below)), MIN_SIZE)
+    side = max(math.ceil(np.ptp(along) / width_share), float(np.ptp(below)), MIN_SIZE)
     centre = across * (along.min() + along.max()) / 2 + down * (below.min() + below.max()) / 2
     return centre, float(side)
 
@@ -79,14 +74,14 @@ def square_view(centre: np.ndarray, side: float, angle: float) -> tuple[np.ndarr
     return square_matrix(np.asarray(centre, np.float64), side, angle, size), size
 
 
-def lips_view(lips) -> tuple[np.ndarray, int, float]:
-    """The frame Match reads found lips (vto_core.photo.lips_locator.LipsFound) through: (the view (2, 3) from an
-    n x n frame to the photo, n, the turn in rad). On the pixel grid (lips_frame of the mask, n its side) unless the
-    face is rolled past ROLL_TOLERANCE: then turned with it (turned_lips_square)."""
-    turn = face_roll(lips.landmarks) if lips.how == "face" else 0.0
+def region_view(found, region: FaceRegion = LIPS) -> tuple[np.ndarray, int, float]:
+    """The frame Match reads a found face region (vto_core.photo.lips_locator.LipsFound) through: (the view (2, 3)
+    from an n x n frame to the photo, n, the turn in rad). On the pixel grid (region_frame of the mask, n its side)
+    unless the face is rolled past ROLL_TOLERANCE: then turned with it (turned_square)."""
+    turn = face_roll(found.landmarks) if found.how == "face" else 0.0
     if turn:
-        return *square_view(*turned_lips_square(lips.outer, turn), turn), turn
-    x, y, side, _ = lips_frame(lips.mask)
+        return *square_view(*turned_square(found.outer, turn, region.frame_share), turn), turn
+    x, y, side, _ = region_frame(found.mask, region.frame_share)
     return np.array([[1.0, 0.0, x], [0.0, 1.0, y]]), side, 0.0
 
 

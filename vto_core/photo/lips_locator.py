@@ -16,11 +16,11 @@ import numpy as np
 
 from ..colour import srgb_to_lab
 from ..errors import VtoError
-from .face_reader import FaceRead, FaceReader, as_rgb, cached_reader, polygon_mask, reduce, tight_box
+from ..products import LIPS
+from .face_reader import FaceRead, FaceReader, as_rgb, cached_reader, reduce
+from .face_regions import region_mask, region_polygons
 
-# The canonical MediaPipe FACEMESH_LIPS loops (face_landmarks_to_render_data_calculator.cc), each in order.
-LIP_OUTER = [61, 146, 91, 181, 84, 17, 314, 405, 321, 375, 291, 409, 270, 269, 267, 0, 37, 39, 40, 185]
-LIP_INNER = [78, 95, 88, 178, 87, 14, 317, 402, 318, 324, 308, 415, 310, 311, 312, 13, 82, 81, 80, 191]
+LIP_OUTER, LIP_INNER = (list(loop) for loop in LIPS.loops)  # the face mesh's lip loops (vto_core.products.LIPS)
 
 # The close-up test (see close_up_test): the picture reduced to CLOSE_UP_SIZE px on its longer side.
 CLOSE_UP_SIZE = 48
@@ -43,21 +43,6 @@ class LipsFound:
     landmarks: np.ndarray | None = None  # (468, 2) float32 the whole face mesh in image pixels; None for a close-up
     face_box: tuple[float, float, float, float] | None = None  # x, y, w, h of the detector's box of the face used
     depth: np.ndarray | None = None  # (468,) float32 the face mesh's depth in image pixels, nearer lower
-
-
-def lips_mask(outer: np.ndarray, inner: np.ndarray, height: int, width: int
-              ) -> tuple[np.ndarray, tuple[int, int, int, int]]:
-    """(height, width) float32 0/1, inside the outer lip contour (K, 2) and outside the inner one (L, 2), and its tight
-    box (x, y, w, h; (0, 0, 0, 0) when empty). Only the outer contour's box is rasterised."""
-    mask = np.zeros((height, width), np.float32)
-    x0, y0 = (max(0, int(math.floor(v))) for v in outer.min(axis=0))
-    x1, y1 = min(width, int(math.ceil(outer[:, 0].max()))), min(height, int(math.ceil(outer[:, 1].max())))
-    if x1 <= x0 or y1 <= y0:
-        return mask, (0, 0, 0, 0)
-    inside = polygon_mask(outer, x0, y0, x1 - x0, y1 - y0) & ~polygon_mask(inner, x0, y0, x1 - x0, y1 - y0)
-    mask[y0:y1, x0:x1] = inside
-    x, y, w, h = tight_box(inside)
-    return mask, (x + x0, y + y0, w, h) if w else (0, 0, 0, 0)
 
 
 def blur(image: np.ndarray, passes: int = 2) -> np.ndarray:
@@ -177,8 +162,8 @@ class LipsLocator:
         face = self.reader.read(image) if face is None else face
         if face is not None:
             landmarks = face.landmarks
-            outer, inner = landmarks[LIP_OUTER], landmarks[LIP_INNER]
-            mask, box = lips_mask(outer, inner, height, width)
+            outer, inner = region_polygons(landmarks, LIPS)
+            mask, box = region_mask([outer, inner], height, width)
             if not box[2]:
                 raise VtoError("no lips found: the face is too small in this image (its lips cover no pixel); "
                                "crop the face or give a mask")

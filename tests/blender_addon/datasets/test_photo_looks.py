@@ -12,7 +12,7 @@ import pytest
 pytestmark = pytest.mark.blender
 pytest.importorskip("bpy")
 
-from blender_addon.datasets.photo_looks import BLOCK, camera_view, face_of, training_faces  # noqa: E402
+from blender_addon.datasets.photo_looks import BLOCK, camera_view, face_index, training_faces  # noqa: E402
 from vto_core import cli  # noqa: E402
 from vto_core.colour import srgb_to_lab  # noqa: E402
 from vto_core.dataset import DatasetReader  # noqa: E402
@@ -43,8 +43,8 @@ def test_only_the_training_split_of_a_listed_folder_is_used_and_any_photo_of_an_
 
 
 def test_looks_come_in_blocks_on_one_face_and_every_face_is_reached():
-    assert len({face_of(1, i, 5) for i in range(BLOCK)}) == 1
-    assert {face_of(1, i * BLOCK, 5) for i in range(5)} == set(range(5))
+    assert len({face_index(1, i, 5) for i in range(BLOCK)}) == 1
+    assert {face_index(1, i * BLOCK, 5) for i in range(5)} == set(range(5))
     assert camera_view(3, 7) == camera_view(3, 7) and camera_view(3, 7) != camera_view(3, 8)
 
 

@@ -34,7 +34,7 @@ BAD = {"broken.png": "cannot read image", "tiny.png": "at least 8x8", "notes.txt
 def photos(tmp_path_factory):
     """6 renders (2 presets, several sources; 'stray' matches no product) and 3 unusable files: a corrupt PNG, a 1x1
     image, a text file."""
-    from blender_addon.datasets.commands import render
+    from blender_addon.renderers.products import render
 
     folder = tmp_path_factory.mktemp("batch-photos")
     presets = load_presets("lipstick")

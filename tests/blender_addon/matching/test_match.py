@@ -52,7 +52,7 @@ def models(tmp_path_factory):
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
     """A red lipstick rendered on default-scene source 3 (Cycles seed 0), saved as a 16-bit PNG."""
-    from blender_addon.datasets.commands import render
+    from blender_addon.renderers.products import render
 
     path = tmp_path_factory.mktemp("match-reference") / "reference.png"
     write_image(path, render("lipstick", {"opacity": 0.9, "red": 200.0, "green": 30.0, "blue": 60.0}, SOURCE, RES,
@@ -244,7 +244,8 @@ def portrait(tmp_path_factory):
 
 def test_a_whole_portrait_is_read_at_its_lips(models, portrait, tmp_path, capsys):
     """No crop, no mask: the lips are found and framed; the estimate is the encoder's reading of that frame."""
-    from blender_addon.matching.reference import lips_frame
+    from vto_core.photo.framing import region_frame
+    from vto_core.products import LIPS
 
     out = tmp_path / "params.json"
     assert cli.run(["match", "--model", models[0], "--image", str(portrait), "--out-params", str(out)]) == 0
@@ -254,7 +255,7 @@ def test_a_whole_portrait_is_read_at_its_lips(models, portrait, tmp_path, capsys
     whole = read_image(portrait)[0]
     mask = np.zeros(whole.shape[:2])
     mask[y:y + h, x:x + w] = 1
-    fx, fy, fw, fh = lips_frame(mask)
+    fx, fy, fw, fh = region_frame(mask, LIPS.frame_share)
     framed = EncoderSession(models[0]).predict(whole[fy:fy + fh, fx:fx + fw])[0]
     whole_image = EncoderSession(models[0]).predict(whole)[0]
     written = parse_params(str(out), "lipstick")

@@ -10,8 +10,8 @@ bpy = pytest.importorskip("bpy")
 
 from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
-from blender_addon.matching.photo_fit import (apparent_colour, iter_fit_photo, iter_polish_colour,  # noqa: E402
-                                              photo_values)
+from blender_addon.matching.photo_fit import apparent_colour, iter_fit_photo, photo_values  # noqa: E402
+from blender_addon.matching.colour_fit import iter_polish_colour  # noqa: E402
 from blender_addon.renderers.product_lipstick import RENDERER as LIPS_SIDE, LIPS_POOL, iter_lips_pool  # noqa: E402
 from blender_addon.matching.refine import drain  # noqa: E402
 from blender_addon.renderers.scene_lips import lips_mask  # noqa: E402
@@ -49,20 +49,20 @@ def test_the_hair_fit_gives_the_default_hair_the_photos_colour_from_a_far_start(
 def test_the_shipped_hair_regions_are_the_renders_of_the_fit_sources():
     """The hair regions hair's fits use come from blender_addon/data (no Cycles render in the panel), and they are what
     the hair scene renders for those seeds today (bpy 4.5 made them; bpy 5's Cycles renders them near alike)."""
-    from blender_addon.renderers import product_hair as photo_fit
+    from blender_addon.renderers import product_hair
 
-    photo_fit.hair_region.cache_clear()
-    with np.load(photo_fit.DATA / photo_fit.FIT_REGIONS) as regions:
-        assert int(regions["res"]) == photo_fit.FIT_RES and sorted(regions.files) == sorted(
-            ["blender", "res", "samples"] + [f"{k}_{s}" for s in photo_fit.FIT_SOURCES for k in ("rgb", "mask")])
-    shipped = [photo_fit.hair_region(seed, photo_fit.FIT_RES, DEFAULT_SAMPLES) for seed in photo_fit.FIT_SOURCES]
+    product_hair.hair_region.cache_clear()
+    with np.load(product_hair.DATA / product_hair.FIT_REGIONS) as regions:
+        assert int(regions["res"]) == product_hair.FIT_RES and sorted(regions.files) == sorted(
+            ["blender", "res", "samples"] + [f"{k}_{s}" for s in product_hair.FIT_SOURCES for k in ("rgb", "mask")])
+    shipped = [product_hair.hair_region(seed, product_hair.FIT_RES, DEFAULT_SAMPLES) for seed in product_hair.FIT_SOURCES]
     assert all(r.rgb.shape == (64, 64, 3) and r.rgb.dtype == np.float32 and r.mask.mean() > 0.5 for r in shipped)
     assert min(np.abs(a.rgb - b.rgb).mean() for a, b in zip(shipped, shipped[1:])) > 0.01  # four seeds, four looks
-    fresh = render_hair_source(photo_fit.FIT_SOURCES[1], photo_fit.FIT_RES, DEFAULT_SAMPLES, 0)
+    fresh = render_hair_source(product_hair.FIT_SOURCES[1], product_hair.FIT_RES, DEFAULT_SAMPLES, 0)
     assert (fresh.mask == shipped[1].mask).mean() > 0.99
     hair = (fresh.mask > 0.5) & (shipped[1].mask > 0.5)
     assert np.abs(fresh.rgb - shipped[1].rgb)[hair].mean() < 0.002
-    other = photo_fit.hair_region(photo_fit.FIT_SOURCES[1], 32, DEFAULT_SAMPLES)  # not shipped: rendered now
+    other = product_hair.hair_region(product_hair.FIT_SOURCES[1], 32, DEFAULT_SAMPLES)  # not shipped: rendered now
     assert other.rgb.shape == (32, 32, 3)
 
 
@@ -208,7 +208,8 @@ def test_fast_starts_its_colour_fit_round_the_hue_circle():
     """The encoder reads a near-grey hair's hue at random, and a fit settles where it starts on the circle: Fast's
     colour fit also starts a quarter, a half and three quarters of a turn on, and keeps the fit nearest the photo's
     statistics (a dark grey hair: 15x nearer than from the encoder's hue alone)."""
-    from blender_addon.matching.photo_fit import colour_imitator_path, fit_colour, fit_start
+    from blender_addon.matching.photo_fit import fit_start
+    from blender_addon.matching.colour_fit import colour_imitator_path, fit_colour
     from blender_addon.shipped import MODELS
     from vto_core.appearance import region_statistics
     from vto_core.colour_imitator import cached_imitator
@@ -234,7 +235,7 @@ def test_fast_keeps_the_fit_nearest_the_encoder_among_those_that_tie(monkeypatch
     """Colour fits whose statistics miss the photo's within NEAR_TIE of the least are told apart by the imitator's
     error, not the photo: the one nearest the encoder's estimate is kept; one clearly nearer the photo still wins."""
     import vto_core.colour_imitator
-    from blender_addon.matching import photo_fit
+    from blender_addon.matching import colour_fit, photo_fit
     from blender_addon.shipped import MODELS
     from vto_core.appearance import region_statistics
     from vto_core.inference import EncoderSession
@@ -258,7 +259,7 @@ def test_fast_keeps_the_fit_nearest_the_encoder_among_those_that_tie(monkeypatch
 
     def chosen(misses):
         monkeypatch.setattr(vto_core.colour_imitator, "cached_imitator", lambda path: Imitator(misses))
-        found = spec.normalise(spec.vector(photo_fit.fit_colour(spec, region, start)[0]))
+        found = spec.normalise(spec.vector(colour_fit.fit_colour(spec, region, start)[0]))
         return int(np.argmin([np.abs(found - np.clip(unit + 0.1 * n, 0, 1)).max() for n in range(4)]))
 
     assert chosen([1.1, 1.0, 9.0, 1.05]) == 0  # a tie: the nearest the encoder

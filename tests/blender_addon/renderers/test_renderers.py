@@ -11,7 +11,7 @@ import pytest
 pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
-from blender_addon.datasets.commands import render  # noqa: E402
+from blender_addon.renderers.products import render  # noqa: E402
 from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
 from blender_addon.renderers.node_utils import interface_names  # noqa: E402

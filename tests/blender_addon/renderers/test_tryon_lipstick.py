@@ -14,7 +14,7 @@ from blender_addon.renderers.tryon import find_lips, tryon_lipstick  # noqa: E40
 from vto_core import cli  # noqa: E402
 from vto_core.colour import srgb_to_lab  # noqa: E402
 from vto_core.imageio import read_image, resize, write_image  # noqa: E402
-from vto_core.photo.framing import lips_view, view_cut  # noqa: E402
+from vto_core.photo.framing import region_view, view_cut  # noqa: E402
 from vto_core.photo.tryon import feathered  # noqa: E402
 from vto_core.presets import load_presets  # noqa: E402
 
@@ -64,7 +64,7 @@ def test_each_face_gets_a_clean_render_on_its_lips_and_nowhere_else(name):
 
 def test_the_crop_is_the_frame_match_reads_with_the_product_on_it(astronaut):
     lips = find_lips(astronaut)
-    view, size, _ = lips_view(lips)
+    view, size, _ = region_view(lips)
     crop = tryon_lipstick(astronaut, PRESETS["Espresso"], crop=64, samples=SAMPLES)
     scaled = view.copy()
     scaled[:, :2] *= size / 64

@@ -9,7 +9,7 @@ import pytest
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 bpy = pytest.importorskip("bpy")
 
-from blender_addon.datasets.commands import render  # noqa: E402
+from blender_addon.renderers.products import render  # noqa: E402
 from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.renderers.scene_lips import lips_mask  # noqa: E402
 from vto_core.dataset import DEFAULT_SAMPLES  # noqa: E402

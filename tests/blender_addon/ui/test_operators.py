@@ -17,12 +17,13 @@ bpy = pytest.importorskip("bpy")
 
 import blender_addon  # noqa: E402
 from blender_addon.matching import apply  # noqa: E402
-from blender_addon.matching.reference import load_reference  # noqa: E402
+from blender_addon.renderers.products import blender_side  # noqa: E402
+from vto_core.photo.photo_reader import load_reference  # noqa: E402
 from blender_addon.shipped import MODELS  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import read_image, write_image  # noqa: E402
 from vto_core.inference import EncoderSession, cached_session  # noqa: E402
-from vto_core.products import HAIR, LIPSTICK, get_spec  # noqa: E402
+from vto_core.products import HAIR as HAIR_PRODUCT, LIPSTICK as LIPSTICK_PRODUCT, get_spec  # noqa: E402
 
 MODEL = str(apply.default_model("lipstick"))
 SPEC = EncoderSession(MODEL).spec  # whatever the shipped model estimates: read from its metadata
@@ -109,7 +110,7 @@ def material(request):
 def group_node(material):
     if isinstance(material, str):
         material = bpy.data.materials[material]
-    (node,) = apply.group_nodes(LIPSTICK, material)
+    (node,) = apply.group_nodes(LIPSTICK_PRODUCT, material)
     return node
 
 
@@ -177,7 +178,7 @@ def test_add_lipstick_material_needs_a_mesh():
     with pytest.raises(RuntimeError, match="poll"):
         bpy.ops.vto.add_lipstick_material()
     with pytest.raises(VtoError, match="select a mesh"):
-        apply.add_lipstick_material(empty)
+        blender_side("lipstick").add_group(empty)
     assert len(bpy.data.materials) == count
 
 
@@ -185,7 +186,7 @@ def test_add_hair_compositor_wires_both_groups_to_the_outputs():
     scene = bpy.data.scenes.new("Hair Shot")
     with bpy.context.temp_override(scene=scene):
         assert bpy.ops.vto.add_hair_compositor() == {"FINISHED"}
-    nodes = {n.node_tree.name: n for n in apply.group_nodes(HAIR, scene)}
+    nodes = {n.node_tree.name: n for n in apply.group_nodes(HAIR_PRODUCT, scene)}
     assert set(nodes) == {"VTO Hair Swatch", "VTO Hair Color"}
     color, swatch = nodes["VTO Hair Color"], nodes["VTO Hair Swatch"]
     assert color.outputs[0].links[0].to_node.bl_idname in ("CompositorNodeComposite", "NodeGroupOutput")
@@ -375,7 +376,7 @@ def test_nan_pixels_are_read_as_zero_with_a_warning(odd_files):
 
 def new_material() -> str:
     obj = new_mesh("NaN Lips")
-    return apply.add_lipstick_material(obj).name
+    return blender_side("lipstick").add_group(obj).name
 
 
 def test_crop_in_pixels_or_fractions_and_an_image_datablock(material, reference):
@@ -438,7 +439,7 @@ def test_hair_fast_and_better_write_the_compositor_groups(tmp_path):
     write_image(tmp_path / "photo_mask.png", mask)
 
     def values():
-        return {p.name: float(n.inputs[p.socket].default_value) for n in apply.group_nodes(HAIR, scene) for p in hair.params
+        return {p.name: float(n.inputs[p.socket].default_value) for n in apply.group_nodes(HAIR_PRODUCT, scene) for p in hair.params
                 if p.socket in n.inputs}
 
     with bpy.context.temp_override(scene=scene):
@@ -456,9 +457,9 @@ def test_hair_fast_and_better_write_the_compositor_groups(tmp_path):
 
 def test_hair_fast_polishes_as_vto_match_does_and_leaves_nothing_behind(tmp_path):
     """The panel's hair Fast with the shipped models: the polish's stage passes run as steps of the operator (a budget
-    of FAST_POLISH renders), the values are those `vto match` writes (photo_fit.fit_photo_fast), and the default
+    of fast_polish renders), the values are those `vto match` writes (colour_fit.fit_photo_fast), and the default
     scenes the passes render are gone afterwards."""
-    from blender_addon.matching.photo_fit import fit_photo_fast
+    from blender_addon.matching.colour_fit import fit_photo_fast
     from blender_addon.matching.reference import read_reference
 
     model = str(MODELS / "hair_encoder.onnx")
@@ -470,13 +471,13 @@ def test_hair_fast_polishes_as_vto_match_does_and_leaves_nothing_behind(tmp_path
     write_image(tmp_path / "auburn.png", photo.astype(np.float32), bits=16)
     write_image(tmp_path / "auburn_mask.png", np.ones((24, 24), np.float32))
     settings = {"image_path": str(tmp_path / "auburn.png"), "mask_path": str(tmp_path / "auburn_mask.png")}
-    assert apply.prepare("hair", {**settings, "model_path": model, "quality": "FAST"})["budget"] == HAIR.fit.fast_polish
+    assert apply.prepare("hair", {**settings, "model_path": model, "quality": "FAST"})["budget"] == HAIR_PRODUCT.fit.fast_polish
     kinds = ("scenes", "node_groups", "images", "objects", "materials")
     before = {kind: set(getattr(bpy.data, kind).keys()) for kind in kinds}
     with bpy.context.temp_override(scene=scene):
         assert run_match(target="HAIR", model_path=model, **settings)[0] == {"FINISHED"}
     assert {kind: set(getattr(bpy.data, kind).keys()) for kind in kinds} == before
-    written = {p.name: float(n.inputs[p.socket].default_value) for n in apply.group_nodes(HAIR, scene)
+    written = {p.name: float(n.inputs[p.socket].default_value) for n in apply.group_nodes(HAIR_PRODUCT, scene)
                for p in get_spec("hair").params if p.socket in n.inputs}
     session = EncoderSession(model)
     reference = read_reference("hair", settings)  # as the panel reads it
@@ -556,16 +557,17 @@ def test_the_thumbnail_outlines_the_lips_found():
 
 def test_the_thumbnail_draws_a_tilted_faces_frame_turned_on_the_photo_as_shown(portrait):
     from benchmarks.common import tilted as turned
-    from blender_addon.matching.reference import lips_reference
-    from vto_core.photo.framing import turned_lips_square
+    from blender_addon.shipped import photo_reader
+    from vto_core.photo.framing import turned_square
+    from vto_core.products import LIPS
     from blender_addon.ui.thumbnail import CROP_COLOUR, SIZE, compose
 
     photo = read_image(portrait)[0]
     tilted = turned(photo, 30)
-    reference = lips_reference(tilted)
+    reference = photo_reader().region_reference(LIPSTICK_PRODUCT, tilted)
     canvas = compose(tilted, None, None, reference.lips)
     frame = np.all(np.isclose(canvas[..., :3], CROP_COLOUR), axis=-1)
-    centre, side = turned_lips_square(reference.lips.outer, reference.turn)
+    centre, side = turned_square(reference.lips.outer, reference.turn, LIPS.frame_share)
     across = np.array([np.cos(reference.turn), np.sin(reference.turn)])
     down = np.array([-across[1], across[0]])
     scale = SIZE / max(tilted.shape[:2])
@@ -601,7 +603,7 @@ def test_hair_is_found_in_a_portrait_by_the_operator_and_no_hair_changes_nothing
         bpy.ops.vto.add_hair_compositor()
 
     def values():
-        return {p.name: float(n.inputs[p.socket].default_value) for n in apply.group_nodes(HAIR, scene) for p in hair.params
+        return {p.name: float(n.inputs[p.socket].default_value) for n in apply.group_nodes(HAIR_PRODUCT, scene) for p in hair.params
                 if p.socket in n.inputs}
 
     before = values()
@@ -737,9 +739,9 @@ class FakeLayout:
 def test_the_fast_label_says_what_each_fast_renders():
     from blender_addon.ui.panels import quality_cost
 
-    assert quality_cost(LIPSTICK, "FAST") == "Fast: no render, milliseconds"
-    assert quality_cost(HAIR, "FAST") == "Fast: 3 stage passes, 0.3-1 s"  # HAIR.fit: fast_polish, seconds
-    assert quality_cost(HAIR, "BETTER") == "Better: 100 renders, 2-6 s"
+    assert quality_cost(LIPSTICK_PRODUCT, "FAST") == "Fast: no render, milliseconds"
+    assert quality_cost(HAIR_PRODUCT, "FAST") == "Fast: 3 stage passes, 0.3-1 s"  # HAIR.fit: fast_polish, seconds
+    assert quality_cost(HAIR_PRODUCT, "BETTER") == "Better: 100 renders, 2-6 s"
 
 
 def test_the_panels_draw_every_control_and_the_last_estimate(material, reference):
@@ -750,8 +752,8 @@ def test_the_panels_draw_every_control_and_the_last_estimate(material, reference
     shown = {entry[1] for entry in log if entry[0] == "prop"}
     assert {"image_path", "use_crop", "mask_path", "model_path"} <= shown
     assert {"find_region"} <= shown
-    assert [entry[1] for entry in log if entry[0] == "enum"] == ["FAST", "BETTER"]  # LIPSTICK.fit.offered
-    assert ("label", LIPSTICK.fit.not_offered) in log  # and it says why not Best
+    assert [entry[1] for entry in log if entry[0] == "enum"] == ["FAST", "BETTER"]  # LIPSTICK_PRODUCT.fit.offered
+    assert ("label", LIPSTICK_PRODUCT.fit.not_offered) in log  # and it says why not Best
     assert any(entry[1] == "Fast: no render, milliseconds" for entry in log if entry[0] == "label")
     assert ("operator", "vto.match_from_photo") in log
     assert run_match(material=material, image_path=reference)[0] == {"FINISHED"}
@@ -774,7 +776,7 @@ def test_invoke_in_background_is_execute_and_refinement_reports_progress(materia
     assert {n: inputs_of(material)[n] for n in expected} == pytest.approx(expected, abs=1e-4)
     hair = get_spec("hair")
     scene = bpy.data.scenes.new("Hair Progress")
-    apply.add_hair_compositor(scene)
+    blender_side("hair").add_group(scene)
     write_image(tmp_path / "photo.png", gradient_image(16, 16), bits=16)
     mask = np.zeros((16, 16), np.float32)
     mask[4:] = 1.0
@@ -793,7 +795,7 @@ def test_the_modal_refinement_writes_only_at_the_end_and_esc_changes_nothing(tmp
 
     hair = get_spec("hair")
     scene = bpy.data.scenes.new("Hair Modal")
-    apply.add_hair_compositor(scene)
+    blender_side("hair").add_group(scene)
     write_image(tmp_path / "photo.png", gradient_image(16, 16), bits=16)
     mask = np.zeros((16, 16), np.float32)
     mask[4:] = 1.0
@@ -818,11 +820,11 @@ def test_the_modal_refinement_writes_only_at_the_end_and_esc_changes_nothing(tmp
                               event_timer_remove=lambda timer: None)
     context = SimpleNamespace(window_manager=manager)
     monkeypatch.setattr(operators, "TICK_SECONDS", 0.0)  # one render per tick
-    before = {s.name: s.default_value for n in apply.group_nodes(HAIR, scene) for s in n.inputs if s.name in
+    before = {s.name: s.default_value for n in apply.group_nodes(HAIR_PRODUCT, scene) for s in n.inputs if s.name in
               {p.socket for p in hair.params}}
 
     def values():
-        return {s.name: s.default_value for n in apply.group_nodes(HAIR, scene) for s in n.inputs if s.name in before}
+        return {s.name: s.default_value for n in apply.group_nodes(HAIR_PRODUCT, scene) for s in n.inputs if s.name in before}
 
     cancelled = Modal()
     assert cancelled.modal(context, SimpleNamespace(type="TIMER")) == {"RUNNING_MODAL"} and progress == [2]

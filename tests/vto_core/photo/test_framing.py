@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 
-from vto_core.photo.framing import (LIPS_WIDTH_SHARE, MIN_SIZE, lips_frame, square_view, turned_lips_square, view_box,
+from vto_core.products import LIPS
+
+from vto_core.photo.framing import (MIN_SIZE, region_frame, square_view, turned_square, view_box,
                                     view_cut)
 
 
@@ -14,24 +16,24 @@ def mask_with_box(height, width, rows, cols):
 
 
 def test_the_frame_is_a_square_the_lips_span_their_share_of():
-    x, y, w, h = lips_frame(mask_with_box(100, 100, slice(40, 50), slice(30, 70)))
+    x, y, w, h = region_frame(mask_with_box(100, 100, slice(40, 50), slice(30, 70)), LIPS.frame_share)
     assert (x, y, w, h) == (24, 19, 52, 52)  # 40 px of lips / 0.78 -> 52, centred on (45, 50)
-    assert 40 / w == pytest.approx(LIPS_WIDTH_SHARE, abs=0.02)
+    assert 40 / w == pytest.approx(LIPS.frame_share, abs=0.02)
 
 
 def test_the_frame_moves_inside_the_image_and_shrinks_to_fit():
-    assert lips_frame(mask_with_box(24, 24, slice(6, 18), slice(0, 12))) == (0, 4, 16, 16)  # moved right
-    assert lips_frame(mask_with_box(20, 40, slice(5, 15), slice(2, 38))) == (10, 0, 20, 20)  # shrunk, centred
-    x, y, w, h = lips_frame(mask_with_box(30, 30, slice(25, 30), slice(20, 30)))
+    assert region_frame(mask_with_box(24, 24, slice(6, 18), slice(0, 12)), LIPS.frame_share) == (0, 4, 16, 16)  # moved right
+    assert region_frame(mask_with_box(20, 40, slice(5, 15), slice(2, 38)), LIPS.frame_share) == (10, 0, 20, 20)  # shrunk, centred
+    x, y, w, h = region_frame(mask_with_box(30, 30, slice(25, 30), slice(20, 30)), LIPS.frame_share)
     assert (w, h) == (13, 13) and x + w <= 30 and y + h <= 30  # a corner: still inside
 
 
 def test_a_single_pixel_gets_the_smallest_usable_frame():
-    assert lips_frame(mask_with_box(50, 50, slice(10, 11), slice(10, 11)))[2:] == (MIN_SIZE, MIN_SIZE)
+    assert region_frame(mask_with_box(50, 50, slice(10, 11), slice(10, 11)), LIPS.frame_share)[2:] == (MIN_SIZE, MIN_SIZE)
 
 
 def test_a_tall_mask_is_not_cut():
-    x, y, w, h = lips_frame(mask_with_box(100, 100, slice(10, 90), slice(45, 55)))
+    x, y, w, h = region_frame(mask_with_box(100, 100, slice(10, 90), slice(45, 55)), LIPS.frame_share)
     assert w == h == 80 and y <= 10 and y + h >= 90
 
 
@@ -52,5 +54,5 @@ def test_turned_lips_are_measured_along_the_face():
     outer = np.array([[0, 0], [40, 0], [20, -8], [20, 8]], np.float64)  # 40 px wide, 16 tall
     angle = np.radians(30)
     turn = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-    centre, side = turned_lips_square(outer @ turn.T + (100, 50), angle)
-    assert side == pytest.approx(np.ceil(40 / LIPS_WIDTH_SHARE)) and centre == pytest.approx(turn @ (20, 0) + (100, 50))
+    centre, side = turned_square(outer @ turn.T + (100, 50), angle, LIPS.frame_share)
+    assert side == pytest.approx(np.ceil(40 / LIPS.frame_share)) and centre == pytest.approx(turn @ (20, 0) + (100, 50))

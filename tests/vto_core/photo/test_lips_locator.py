@@ -13,6 +13,7 @@ from vto_core.errors import VtoError
 pytest.importorskip("onnxruntime")
 from vto_core.photo import face_reader as fr  # noqa: E402
 from vto_core.photo import lips_locator as ll  # noqa: E402
+from vto_core.photo.face_reader import polygon_mask  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[3]
 MODELS = ROOT / "blender_addon" / "models"
@@ -69,10 +70,10 @@ def test_the_mouth_opening_is_not_lips(locator, astronaut):
     # She smiles with her teeth showing: the inner contour encloses them, and the mask leaves them out.
     found = locator.locate(astronaut)
     x, y, w, h = found.box
-    opening = ll.polygon_mask(found.inner, x, y, w, h)
+    opening = polygon_mask(found.inner, x, y, w, h)
     assert opening.sum() > 100
     assert not found.mask[y:y + h, x:x + w][opening].any()
-    lips = ll.polygon_mask(found.outer, x, y, w, h) & ~opening
+    lips = polygon_mask(found.outer, x, y, w, h) & ~opening
     assert found.mask[y:y + h, x:x + w].sum() == lips.sum() > 200
 
 
