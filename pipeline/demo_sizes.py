@@ -34,7 +34,7 @@ class DemoSize:
     encoder: tuple[str, ...]
     eval_n: int
     refine: tuple[str, ...]
-    smoke_params: bool = False  # model the product's smoke_params (what a tiny encoder learns in a minute), not its spec
+    smoke_params: bool = False  # model the product's smoke_params (a tiny encoder learns them in a minute)
 
     def params(self, renderer: str) -> str | None:
         """The --params of the datasets: None for the default spec."""

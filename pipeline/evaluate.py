@@ -130,7 +130,7 @@ def methods(settings: EvalSettings) -> dict[str, tuple[str, int]]:
     the default sources of blender_addon.matching.photo_fit, never A or B),
     'render from mean' (CMA-ES)."""
     from blender_addon.matching.match import parse_refine
-    from blender_addon.matching.photo_fit import QUALITIES
+    from vto_core.products import QUALITIES
 
     found = {"mean preset": ("mean", 0), "nearest preset": ("nearest", 0), "encoder": ("encoder", 0)}
     for item in settings.refine:

@@ -1,9 +1,8 @@
-"""Render the hair regions the hair fits start from (renderers.product_hair.FIT_SOURCES at FIT_RES, DEFAULT_SAMPLES) into
-blender_addon/data/hair_fit_regions.npz (run once on bpy 4.5; the file is committed, and
+"""Render the hair regions the hair fits start from (renderers.product_hair.FIT_SOURCES at FIT_RES, DEFAULT_SAMPLES)
+into blender_addon/data/hair_fit_regions.npz (run once on bpy 4.5; the file is committed, and
 tests/blender_addon/matching/test_photo_fit.py renders one again against it).
 
-    .venv/bin/python scripts/render_fit_regions.py
-"""
+.venv/bin/python scripts/render_fit_regions.py"""
 
 import bpy
 import numpy as np

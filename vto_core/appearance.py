@@ -63,30 +63,30 @@ def lab_of_pixels(pixels: np.ndarray) -> np.ndarray:
     return lab
 
 
-def skin_around(lips: np.ndarray) -> np.ndarray:
-    """The skin beside, above and below the lips: (H, W) lips mask -> (H, W) bool, a box 1.3x the lips' width and as
-    high as it is wide, centred on them, less the lips' own box grown by a tenth of their width (no teeth, no
-    mouth). Clipped to the image; empty for an empty mask."""
-    skin = np.zeros(np.shape(lips)[:2], bool)
-    found = skin_box(lips)
+def skin_around(region: np.ndarray) -> np.ndarray:
+    """The skin beside, above and below a face region (the lips): (H, W) region mask -> (H, W) bool, a box 1.3x the
+    region's width and as high as it is wide, centred on it, less the region's own box grown by a tenth of its width
+    (no teeth, no mouth). Clipped to the image; empty for an empty mask."""
+    skin = np.zeros(np.shape(region)[:2], bool)
+    found = skin_box(region)
     if found is not None:
         (y0, y1, x0, x1), inside = found
         skin[y0:y1, x0:x1] = inside
     return skin
 
 
-def skin_box(lips: np.ndarray) -> tuple[tuple[int, int, int, int], np.ndarray] | None:
+def skin_box(region: np.ndarray) -> tuple[tuple[int, int, int, int], np.ndarray] | None:
     """skin_around without a whole-image mask: ((y0, y1, x0, x1) the rows and columns the skin spans, (y1 - y0,
     x1 - x0) bool the skin inside them), or None for an empty mask or no skin. Per axis, so a 64-megapixel photo's
-    lips cost a few vectors, not whole-image grids."""
-    lips = np.asarray(lips)
-    lips = lips if lips.dtype == bool else np.asarray(lips, np.float32) > 0.5  # NaN is no lips
-    rows, cols = np.flatnonzero(lips.any(axis=1)), np.flatnonzero(lips.any(axis=0))
+    region cost a few vectors, not whole-image grids."""
+    region = np.asarray(region)
+    region = region if region.dtype == bool else np.asarray(region, np.float32) > 0.5  # NaN is outside
+    rows, cols = np.flatnonzero(region.any(axis=1)), np.flatnonzero(region.any(axis=0))
     if not rows.size:
         return None
     width = cols.max() + 1 - cols.min()
     centre_y, centre_x = (rows.min() + rows.max() + 1) / 2, (cols.min() + cols.max() + 1) / 2
-    y, x = np.arange(lips.shape[0]) + 0.5, np.arange(lips.shape[1]) + 0.5
+    y, x = np.arange(region.shape[0]) + 0.5, np.arange(region.shape[1]) + 0.5
     grow = 0.1 * width
     in_rows = np.flatnonzero(np.abs(y - centre_y) < 0.5 * width)
     in_cols = np.flatnonzero(np.abs(x - centre_x) < 0.65 * width)
@@ -94,39 +94,39 @@ def skin_box(lips: np.ndarray) -> tuple[tuple[int, int, int, int], np.ndarray] |
         return None
     y0, y1, x0, x1 = in_rows[0], in_rows[-1] + 1, in_cols[0], in_cols[-1] + 1
     y, x = y[y0:y1], x[x0:x1]
-    lips_rows = (y > rows.min() - grow) & (y < rows.max() + 1 + grow)
-    lips_cols = (x > cols.min() - grow) & (x < cols.max() + 1 + grow)
-    return (int(y0), int(y1), int(x0), int(x1)), ~(lips_rows[:, None] & lips_cols[None, :])
+    region_rows = (y > rows.min() - grow) & (y < rows.max() + 1 + grow)
+    region_cols = (x > cols.min() - grow) & (x < cols.max() + 1 + grow)
+    return (int(y0), int(y1), int(x0), int(x1)), ~(region_rows[:, None] & region_cols[None, :])
 
 
-def skin_colour(rgb: np.ndarray, lips: np.ndarray) -> np.ndarray | None:
-    """The mean linear RGB (3,) of the skin around the lips (skin_around), or None where fewer than MIN_PIXELS of it
+def skin_colour(rgb: np.ndarray, region: np.ndarray) -> np.ndarray | None:
+    """The mean linear RGB (3,) of the skin around the region (skin_around), or None where fewer than MIN_PIXELS of it
     are in the image (a close crop)."""
     from .colour import srgb_to_linear
 
-    pixels = _skin_pixels(rgb, lips)
+    pixels = _skin_pixels(rgb, region)
     return None if pixels is None else srgb_to_linear(pixels).mean(axis=0, dtype=np.float64)
 
 
-def _skin_pixels(rgb: np.ndarray, lips: np.ndarray) -> np.ndarray | None:
-    """region_pixels of the skin around the lips (skin_around), read inside the skin's box only; None where fewer
+def _skin_pixels(rgb: np.ndarray, region: np.ndarray) -> np.ndarray | None:
+    """region_pixels of the skin around the region (skin_around), read inside the skin's box only; None where fewer
     than MIN_PIXELS of it are in the image."""
-    found = skin_box(lips)
+    found = skin_box(region)
     if found is None or found[1].sum() < MIN_PIXELS:
         return None
     (y0, y1, x0, x1), skin = found
     rgb = np.asarray(rgb)
-    if rgb.shape[:2] != np.shape(lips)[:2]:
-        raise VtoError(f"a region is an (H, W, 3) image and an (H, W) mask, got {rgb.shape} and {np.shape(lips)}")
+    if rgb.shape[:2] != np.shape(region)[:2]:
+        raise VtoError(f"a region is an (H, W, 3) image and an (H, W) mask, got {rgb.shape} and {np.shape(region)}")
     return region_pixels(rgb[y0:y1, x0:x1], skin)
 
 
-def skin_light(rgb: np.ndarray, lips: np.ndarray) -> tuple[float, np.ndarray] | None:
-    """How the skin around the lips is lit: (its mean linear luminance, its mean CIELAB (3,)), or None where fewer
+def skin_light(rgb: np.ndarray, region: np.ndarray) -> tuple[float, np.ndarray] | None:
+    """How the skin around the region is lit: (its mean linear luminance, its mean CIELAB (3,)), or None where fewer
     than MIN_PIXELS of it are in the image (a close crop)."""
     from .colour import luminance, srgb_to_linear
 
-    pixels = _skin_pixels(rgb, lips)
+    pixels = _skin_pixels(rgb, region)
     if pixels is None:
         return None
     return float(luminance(srgb_to_linear(pixels)).mean()), srgb_to_lab(pixels.mean(axis=0)).astype(np.float64)

@@ -32,7 +32,7 @@ class FaceRegion:
 
     name: str  # what the panel and the notes call it: "lips"
     loops: tuple[tuple[int, ...], ...]
-    frame_share: float  # the share of its square's width it spans where the default scene frames it (the encoder's view)
+    frame_share: float  # the share of its square's width it spans where the default scene frames it (what encoders see)
 
 
 @dataclass(frozen=True)
@@ -66,7 +66,7 @@ class Product:
     fit: FitPolicy
     target: str  # the Match operator's target id: "MATERIAL" (kept from before there were several material products)
     group_text: str  # how the panel names its group: "'VTO Lipstick' group"
-    blender_module: str  # its Blender side: a module of blender_addon.renderers (".lipstick"), or an absolute one
+    blender_module: str  # its Blender side: a module of blender_addon.renderers (".product_lipstick"), or an absolute one
     photo_fixes: Mapping[str, float] = field(default_factory=frozen)  # what a match sets, whatever the photo shows
     photo_is_own_source: bool = False  # a photo with '<name>_mask' beside it is its own source (histogram matching)
     fits_in_photo_scene: bool = False  # Better and Best fit a face's photo in its own scene (photo_scene_fit)
@@ -77,7 +77,7 @@ class Product:
     shared_sources: bool = False  # `--looks-per-source`: consecutive looks may share one default-scene source render
     renders_source: bool = True  # the source image X is a render of its own (opacity 0); else it comes with the look
     look: Mapping[str, float] = field(default_factory=frozen)  # the visibility look's base values
-    below_bar: Mapping[str, tuple[float, str]] = field(default_factory=frozen)  # modelled though under the bar: ratio, why
+    below_bar: Mapping[str, tuple[float, str]] = field(default_factory=frozen)  # modelled, under the bar: ratio, why
     layer_looks: bool = False  # a visibility look adds the layer an input acts on (flakes, a coat)
     mouth_views: bool = False  # its encoder may train on open mouths with teeth painted over the region
     tryon: bool = False  # it can be tried on a photo (`vto tryon`, Preview on Photo, batch's sheet)
@@ -129,7 +129,8 @@ LIPSTICK = Product(
     FitPolicy(renders=frozen({"BETTER": (1, 25), "BEST": (2, 100)}),
               seconds=frozen({"BETTER": (3, 11), "BEST": (12, 18)}),
               offered=("FAST", "BETTER"), not_offered="Best: no closer than Better for lips", prior_weight=8.0),
-    "MATERIAL", "'VTO Lipstick' group", ".product_lipstick", fits_in_photo_scene=True, lightings=True, user_scenes=True, photo_datasets=True, masks=True,
+    "MATERIAL", "'VTO Lipstick' group", ".product_lipstick", fits_in_photo_scene=True, lightings=True, user_scenes=True,
+    photo_datasets=True, masks=True,
     look=frozen({"opacity": 1.0}), layer_looks=True, mouth_views=True, tryon=True, asset_library=True,
     smoke_params=("opacity", "red", "green", "blue"))
 
@@ -142,7 +143,8 @@ HAIR = Product(
     FitPolicy(renders=frozen({"BETTER": (2, 100), "BEST": (4, 400)}),
               seconds=frozen({"FAST": (0.3, 1), "BETTER": (2, 6), "BEST": (6, 10)}),
               offered=QUALITIES, prior_weight=2.0, fast_fits=True, fast_polish=3),
-    "HAIR", "VTO hair groups", ".product_hair", photo_fixes=frozen(PHOTO_HAIR), photo_is_own_source=True, shared_sources=True, renders_source=False,
+    "HAIR", "VTO hair groups", ".product_hair", photo_fixes=frozen(PHOTO_HAIR), photo_is_own_source=True,
+    shared_sources=True, renders_source=False,
     no_library=("hair is a two-pass compositor stage fitted to each photo's own hair, not a material: its products are "
                 "in the presets (vto render hair --params preset:NAME@presets.json)"),
     smoke_params=("brightness", "hue", "saturation", "intensity"))

@@ -33,12 +33,12 @@ import numpy as np
 
 from vto_core.errors import VtoError
 from vto_core.inference import EncoderSession, cached_session
-from vto_core.products import PRODUCTS, Product, get_product, get_spec
+from vto_core.products import PRODUCTS, QUALITIES, Product, get_product, get_spec
 from vto_core.specs import RendererSpec
 
 from ..renderers.products import blender_side
 from ..shipped import MODELS
-from .photo_fit import NO_REGION, QUALITIES, iter_fit_photo, photo_values
+from .photo_fit import NO_REGION, iter_fit_photo, photo_values
 from .colour_fit import fast_polish_passes, iter_fit_photo_fast
 from .reference import absolute_path, read_reference
 from .refine import drain

@@ -267,8 +267,8 @@ def sheet_cells(renderer: str, presets: dict, products: dict[str, list[Path]], a
             missing[name] = no_tryon_line(product)
             continue
         try:
-            tryons[name] = blender_side(product).tryon_view(reference.whole, presets[name], args.res, min(args.samples, TRYON_SAMPLES),
-                                      args.seed)
+            tryons[name] = blender_side(product).tryon_view(reference.whole, presets[name], args.res,
+                                                            min(args.samples, TRYON_SAMPLES), args.seed)
         except Exception as exc:  # VtoError 'no face found ...', or a render that failed: the sheet goes on
             missing[name] = failure_line(exc)
     return references, tryons, missing

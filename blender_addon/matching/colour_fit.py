@@ -42,11 +42,11 @@ def fast_polish_passes(renderer: str) -> int:
 
 def iter_fit_photo_fast(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
                         imitator_path: Path | None = None, quality: str = "FAST"):
-    """Fast: the encoder's estimate `start` (modelled raw values) as it is where the product's FitPolicy.fast_fits says the colour fit does
-    not pay, else fit_colour's, its mean colour then polished on the real stage (iter_polish_colour, fast_polish
-    renders; nothing of them left in the .blend) where `quality`, the Match's, is FAST (Better and Best start from the
-    fit unpolished: their figures were measured from it). A generator: yields the polish's renders made so far (the
-    panel runs them between redraws), returns the values and a note for the user ("" when none)."""
+    """Fast: the encoder's estimate `start` (modelled raw values) as it is where the product's FitPolicy.fast_fits says
+    the colour fit does not pay, else fit_colour's, its mean colour then polished on the real stage (iter_polish_colour,
+    fast_polish renders; nothing of them left in the .blend) where `quality`, the Match's, is FAST (Better and Best
+    start from the fit unpolished: their figures were measured from it). A generator: yields the polish's renders made
+    so far (the panel runs them between redraws), returns the values and a note for the user ("" when none)."""
     if not get_product(spec.renderer).fit.fast_fits:
         return dict(start), ""
     fitted, note = fit_colour(spec, region, start, imitator_path)
@@ -103,11 +103,11 @@ def fit_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start:
 def iter_polish_colour(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], start: dict[str, float],
                        imitator_path: Path | None = None, renders: int | None = None, res: int = FIT_RES,
                        samples: int = DEFAULT_SAMPLES):
-    """The modelled values (raw) near `start` whose render on the default scene (its first fit source's region) shows the
-    photo region's mean colour: Gauss-Newton on that colour's CIELAB, its residual from real renders, its Jacobian
-    from the colour imitator's mean; `renders` (FitPolicy.fast_polish) renders in all, each judging the step before it, and the
-    values whose render came nearest (CIEDE2000) are kept (`start` where no step came nearer); a step that came no
-    nearer is retried shorter from the best. A generator: yields renders made so far, returns the modelled values."""
+    """The modelled values (raw) near `start` whose render on the default scene (its first fit source's region) shows
+    the photo region's mean colour: Gauss-Newton on that colour's CIELAB, its residual from real renders, its Jacobian
+    from the colour imitator's mean; `renders` (FitPolicy.fast_polish) renders in all, each judging the step before it,
+    and the values whose render came nearest (CIEDE2000) are kept (`start` where no step came nearer); a step that came
+    no nearer is retried shorter from the best. A generator: yields renders made so far, returns the modelled values."""
     from vto_core.appearance import mean_colour
     from vto_core.colour import ciede2000, srgb_to_lab
     from vto_core.colour_imitator import STEP, cached_imitator

@@ -23,10 +23,10 @@ import numpy as np
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.inference import EncoderSession
-from vto_core.products import get_product, get_spec
+from vto_core.products import QUALITIES, get_product, get_spec
 
 from ..renderers.products import blender_side
-from .photo_fit import NO_REGION, QUALITIES, iter_fit_photo, photo_values
+from .photo_fit import NO_REGION, iter_fit_photo, photo_values
 from .colour_fit import fit_photo_fast
 from vto_core.photo.photo_reader import at_size
 

@@ -1,4 +1,4 @@
-"""Better and Best for a photo whose scene is unknown (its light already taken out, blender_addon.matching.reference):
+"""Better and Best for a photo whose scene is unknown (its light already taken out, vto_core.photo.photo_reader):
 the estimate fitted through the real renderer, on default-scene sources, to what the photo shows of the material.
 
 A photo of real lips (or of an artist's reference hair) has no source X to render the estimate on, so the render
@@ -28,7 +28,6 @@ from vto_core.specs import RendererSpec
 
 from ..renderers.products import FIT_RES, blender_side
 
-QUALITIES = ("FAST", "BETTER", "BEST")  # the panel's choice; what each costs and gives: the product's FitPolicy
 NO_REGION = ("fits the colour of the lips and needs to know where they are: let the add-on find them (Find Lips), or "
              "give a mask")
 
@@ -62,22 +61,20 @@ def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
                    res: int = FIT_RES, samples: int = DEFAULT_SAMPLES, others: tuple[dict[str, float], ...] = (),
                    photo: tuple[np.ndarray, object] | None = None):
     """Fit the modelled parameters so the default scene's lips (or hair) show the colour statistics
-    (vto_core.appearance.region_statistics) of `region` (the photo (H, W, 3) and its lips or hair mask (H, W)), with
-    the sources and renders of the product's FitPolicy.renders[quality].
+    (vto_core.appearance.region_statistics) of `region` (the photo (H, W, 3) and its lips or hair mask (H, W)), with the
+    sources and renders of the product's FitPolicy.renders[quality].
 
-    The fit starts from `start` (modelled raw values) or, where `others` gives more candidates, from the candidate
-    whose render already shows the photo's statistics best (each costs one render a source, inside the budget); the
-    fit keeps near that start where the photo does not ask otherwise (FitPolicy.prior_weight). Match passes the encoder's
-    estimate and Fast's: on renders the encoder's is the better start (Fast has read the reference's light into the
-    look), on real photos mostly Fast's (the lipstick model card).
-    Lips: the sources are those of LIPS_POOL whose skin looks most like the photo's, toned so their skin shows the
-    photo's skin colour (a scene whose light and skin tone are fitted, as far as the skin shows them; the bare lips
-    follow the skin). Hair: its fit sources' hair regions, as rendered (ProductRenderer.iter_fit_sources).
-    photo: (the whole photo (H, W, 3), the lips found in it): lips of a face are fitted in the photo's own scene
-    instead (blender_addon.matching.photo_scene_fit), from Fast's estimate (the last of `others`, else `start`).
-    A generator: yields renders made so far (0 while the first fit of a session renders its lips sources); returns
-    the fitted modelled values (raw, inside their ranges).
-    """
+    The fit starts from `start` (modelled raw values) or, where `others` gives more candidates, from the candidate whose
+    render already shows the photo's statistics best (each costs one render a source, inside the budget); the fit keeps
+    near that start where the photo does not ask otherwise (FitPolicy.prior_weight). Match passes the encoder's estimate
+    and Fast's: on renders the encoder's is the better start (Fast has read the reference's light into the look), on
+    real photos mostly Fast's (the lipstick model card). Lips: the sources are those of LIPS_POOL whose skin looks most
+    like the photo's, toned so their skin shows the photo's skin colour (a scene whose light and skin tone are fitted,
+    as far as the skin shows them; the bare lips follow the skin). Hair: its fit sources' hair regions, as rendered
+    (ProductRenderer.iter_fit_sources). photo: (the whole photo (H, W, 3), the lips found in it): lips of a face are
+    fitted in the photo's own scene instead (blender_addon.matching.photo_scene_fit), from Fast's estimate (the last of
+    `others`, else `start`). A generator: yields renders made so far (0 while the first fit of a session renders its
+    lips sources); returns the fitted modelled values (raw, inside their ranges)."""
     from vto_core.appearance import region_statistics
 
     from .refine import iter_refine_by_render

@@ -88,5 +88,5 @@ def read_reference(renderer: str, settings: dict) -> Reference:
     whole = read_image_setting(settings)
     mask = read_mask(settings["mask_path"], whole.shape[:2]) if settings.get("mask_path") else None
     product = get_product(renderer)
-    return photo_reader().region_reference(product, whole, settings.get("crop"), mask, settings.get("find_region", True),
-                            settings.get("neutral_light", True))
+    return photo_reader().region_reference(product, whole, settings.get("crop"), mask,
+                                           settings.get("find_region", True), settings.get("neutral_light", True))

@@ -47,7 +47,7 @@ class VTO_PG_match_settings(bpy.types.PropertyGroup):
                                   description="JSON of the last values written, for the panel")
 
 
-LEGACY_FIND = ("find_lips", "find_hair")  # what find_region was called before (one per product); old .blend files hold it
+LEGACY_FIND = ("find_lips", "find_hair")  # find_region's names before (one a product): old .blend files hold them
 
 
 def find_region(props) -> bool:

@@ -389,7 +389,7 @@ def script():
     except Exception as exc:  # noqa: BLE001  (recorded, not fatal: the screenshots show the outline)
         RESULT["errors"].append(f"lips box: {type(exc).__name__}: {exc}")
 
-    # The qualities lips are offered (its FitPolicy.offered); where Better is one, a real click on it, then Match: the fit
+    # The qualities lips are offered (FitPolicy.offered); where Better is one, a real click on it, then Match: the fit
     # in the photo's own scene runs as a modal operator.
     lips["offered"] = list(get_product("lipstick").fit.offered)
     lips["not_offered"] = get_product("lipstick").fit.not_offered

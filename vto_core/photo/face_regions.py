@@ -15,7 +15,8 @@ from .face_reader import polygon_mask, tight_box
 
 
 def region_polygons(landmarks: np.ndarray, region: FaceRegion) -> list[np.ndarray]:
-    """The region's loops in image pixels: [(K, 2) float32, ...] from the face mesh's landmarks (468, 2), outer first."""
+    """The region's loops in image pixels: [(K, 2) float32, ...] from the face mesh's landmarks (468, 2), outer first.
+    """
     landmarks = np.asarray(landmarks)
     return [landmarks[list(loop)] for loop in region.loops]
 

@@ -126,11 +126,11 @@ def light_from_skin(skin_linear: np.ndarray | None) -> PhotoLight:
     return PhotoLight(np.clip(np.exp(log_gains), 1.0 / MAX_GAIN, MAX_GAIN), "skin")
 
 
-def light_of(image: np.ndarray, lips: np.ndarray) -> PhotoLight:
-    """The light of a photo (H, W, 3) read from the skin around its lips (mask (H, W))."""
+def light_of(image: np.ndarray, region: np.ndarray) -> PhotoLight:
+    """The light of a photo (H, W, 3) read from the skin around a face region of it (mask (H, W): the lips)."""
     from ..appearance import skin_colour
 
-    return light_from_skin(skin_colour(image, lips))
+    return light_from_skin(skin_colour(image, region))
 
 
 def relit(image: np.ndarray, gains: np.ndarray) -> np.ndarray:

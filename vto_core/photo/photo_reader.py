@@ -54,8 +54,8 @@ def _decoded_reference(image_path: str, mtime_ns: int, size: int) -> tuple[np.nd
     float32 cleaned; its count of non-finite pixels)."""
     reference, _ = read_image(image_path, stored=True)
     if reference.shape[0] < MIN_SIZE or reference.shape[1] < MIN_SIZE:
-        raise VtoError(f"{image_path}: image is {reference.shape[1]}x{reference.shape[0]}; at least {MIN_SIZE}x{MIN_SIZE} "
-                       "is needed")
+        raise VtoError(f"{image_path}: image is {reference.shape[1]}x{reference.shape[0]}; at least "
+                       f"{MIN_SIZE}x{MIN_SIZE} is needed")
     bad = 0
     if reference.dtype == np.float32:  # integers are finite and, as floats, in [0, 1]
         bad = int((~np.isfinite(reference)).any(axis=-1).sum())
@@ -167,9 +167,9 @@ class PhotoReader:
         return cached_locator(self.detector, self.landmarks).locate(image, face)
 
     def locate_hair(self, image: np.ndarray, face, light=None):
-        """vto_core.photo.hair_locator.HairFound: the hair of `face`'s person in (H, W, 3), with the reader's person model,
-        its colours read with the photo's `light` taken out (None: as they are); VtoError 'no hair found ...' where there is
-        none."""
+        """vto_core.photo.hair_locator.HairFound: the hair of `face`'s person in (H, W, 3), with the reader's person
+        model, its colours read with the photo's `light` taken out (None: as they are); VtoError 'no hair found ...'
+        where there is none."""
         from vto_core.photo.hair_locator import cached_hair_locator
 
         return cached_hair_locator(self.segmenter).locate(image, face, light)
@@ -186,8 +186,8 @@ class PhotoReader:
         return self.last_found
 
     def face_of(self, whole: np.ndarray, facts: dict | None = None):
-        """The largest face of the photo (H, W, 3) (FaceReader.read, or None), read once per photo (its photo_facts, `facts`
-        where the caller has them)."""
+        """The largest face of the photo (H, W, 3) (FaceReader.read, or None), read once per photo (its photo_facts,
+        `facts` where the caller has them)."""
         facts = self.photo_facts(whole) if facts is None else facts
         if "face" not in facts:
             facts["face"] = cached_reader(self.detector, self.landmarks).read(whole)
@@ -235,10 +235,10 @@ class PhotoReader:
             except VtoError:
                 if crop is None or region != LIPS:
                     raise
-                from vto_core.photo.lips_locator import DEFAULT_LENS, close_up
+                from .lips_locator import DEFAULT_LENS, close_up
 
-                lips = close_up((box[3], box[2]), DEFAULT_LENS, 0.0, "no lips found in the crop: the crop is taken as the "
-                                "lips, framed as the default scene frames them")
+                lips = close_up((box[3], box[2]), DEFAULT_LENS, 0.0, "no lips found in the crop: the crop is taken as "
+                                "the lips, framed as the default scene frames them")
             lips = in_whole(lips, box, (height, width))
             mask = lips.mask
             notes += [lips.note] if lips.note else []
@@ -264,9 +264,9 @@ class PhotoReader:
                       ) -> tuple[object, object, object]:
         """(the largest face of `whole` or None, the photo's light read beside its lips or None, the hair found around
         it or None): read_face; with neutral_light and a face, light_of the skin beside the lips; with find_hair and a
-        face, locate_hair in that light (VtoError 'no hair found ...'). The last photo's face and hair are kept, by a hash
-        of its pixels: the panel's thumbnail finds the hair when the photo is chosen, and Match then reads it again at no
-        cost."""
+        face, locate_hair in that light (VtoError 'no hair found ...'). The last photo's face and hair are kept, by a
+        hash of its pixels: the panel's thumbnail finds the hair when the photo is chosen, and Match then reads it again
+        at no cost."""
         facts = self.photo_facts(whole) if facts is None else facts
         face, light, hair = self.face_of(whole, facts), None, None
         if neutral_light and face is not None:
@@ -287,9 +287,9 @@ class PhotoReader:
         all of the hair, for the fits. The hair is a mask where one is given, else the crop (all hair), else (find_hair)
         the hair found around the largest face of a portrait; a picture with no face is read whole as a patch of hair,
         unless it cannot be one (blank, noise, not a hair colour: VtoError 'no hair found ...'). find_hair=False takes
-        the whole image as hair.
-        neutral_light: where the whole photo shows a face, its light is read from the skin beside the lips and taken
-        out (a hair colour is the hair's under neutral light); a photo without one (a patch of hair) is read as it is."""
+        the whole image as hair. neutral_light: where the whole photo shows a face, its light is read from the skin
+        beside the lips and taken out (a hair colour is the hair's under neutral light); a photo without one (a patch of
+        hair) is read as it is."""
         from vto_core.hair import hair_square
         from vto_core.photo.hair_locator import patch_problem
 
@@ -299,8 +299,9 @@ class PhotoReader:
         box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
         finding = find_hair and crop is None and mask is None
         if (neutral_light or finding) and self.face_of(whole, facts) is not None:
-            refuse_monochrome(whole, "hair", facts=facts)  # a portrait: a toned print too (grey hair alone is near one hue)
-        face, light, hair = self.face_and_hair(whole, finding, neutral_light, facts) if neutral_light or finding else (None,) * 3
+            refuse_monochrome(whole, "hair", facts=facts)  # a portrait: a toned print too (grey hair is near one hue)
+        face, light, hair = (self.face_and_hair(whole, finding, neutral_light, facts) if neutral_light or finding
+                             else (None,) * 3)
         notes = []
         if finding:
             if face is None:
@@ -337,8 +338,8 @@ class PhotoReader:
 
     def region_reference(self, product, whole: np.ndarray, crop=None, mask: np.ndarray | None = None, find: bool = True,
                          neutral_light: bool = True) -> Reference:
-        """`whole` (H, W, 3) made ready for `product`: its face-mesh region (the lips) found and framed, or, for a product
-        with no face-mesh region, the hair found and a square of it cut; one-line errors."""
+        """`whole` (H, W, 3) made ready for `product`: its face-mesh region (the lips) found and framed, or, for a
+        product with no face-mesh region, the hair found and a square of it cut; one-line errors."""
         if product.face_region is None:
             return self.hair_reference(whole, crop, mask, neutral_light, find)
         return self.face_region_reference(product, whole, crop, mask, find, neutral_light)
