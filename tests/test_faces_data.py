@@ -112,3 +112,29 @@ def test_every_jpeg_here_is_small_and_has_a_record():
         record = next(r for r in RECORDS if r["file"] == rel)
         assert record["size"] == [w, h], path.name
     assert sum(p.stat().st_size for p in FACES.iterdir()) < 15 * 2**20
+
+
+LONDON = json.loads((FACES / "london" / "faces.json").read_text(encoding="utf-8"))
+LONDON_EVALUATION = {"black": "025 042 043 044 061 062 082 099 126 129", "east_asian": "005 024 030 034 045 067 087 119 127",
+                     "west_asian": "006 008 037 038 064 066 070 115 135 142",
+                     "white": "001 002 003 007 009 010 011 013 014 016"}
+
+
+def test_the_london_set_is_credited_cropped_and_split_by_person():
+    """Every London record names its file, source blob, CC BY licence and crop; the 39 evaluation people (both
+    expressions) are exactly the issue's, each in its self-reported group, and no one is in two splits."""
+    assert len(LONDON) == 204
+    for r in LONDON:
+        path = ROOT / r["file"]
+        assert path.is_file() and jpeg_size(path) == tuple(r["size"]) and max(r["size"]) <= 800, r["file"]
+        assert r["licence"].startswith("CC BY 4.0: DeBruine, L., & Jones, B. (2017)"), r["file"]
+        assert r["source"]["repository"] == "debruine/webmorphR.stim", r["file"]
+        assert re.fullmatch(r"[0-9a-f]{40}", r["source"]["blob"]) and len(r["crop"]) == 4, r["file"]
+    splits = defaultdict(set)
+    for r in LONDON:
+        splits[r["subject"].split(",")[0]].add(r["split"])
+    assert all(len(s) == 1 for s in splits.values()), "a person in two splits"
+    evaluation = {(r["subject"].split()[3].rstrip(","), r["group"]) for r in LONDON if r["split"] == "evaluation"}
+    expected = {(face, group) for group, faces in LONDON_EVALUATION.items() for face in faces.split()}
+    assert evaluation == expected
+    assert all(r["ethnicity"] == r["group"] for r in LONDON if r["split"] == "evaluation")

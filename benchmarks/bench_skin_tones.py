@@ -1,0 +1,207 @@
+"""Products of known colour on faces of every skin tone, under one light: tried on, read back, compared as products.
+
+    python -m benchmarks.bench_skin_tones [--faces N] [--better-every K] [--best-every K] [--compare NAME=MODEL ...]
+
+Faces: the London Set's 39 evaluation people, neutral (data/faces/london: 10 black, 9 east Asian, 10 west Asian, 10
+white; one studio, one light, never trained on). Products: PRODUCTS, 14 presets from nude to espresso and black, glosses
+and mattes. Each is tried on each face with the try-on renderer (16 spp), written as an 8-bit PNG and read back as
+`vto match` reads a photo: Fast (the shipped encoder), Better and Best (on every K-th face), and Fast with each
+--compare encoder. The truth and every estimate are compared as products: their apparent colour on the default lips
+(sources 0 and 1, blender_addon.matching.photo_fit.apparent_colour), in CIELAB; so copying the photo's colour, or one
+answer for every photo, wins nothing. Reported per quality: the slope of the estimate's L* on the truth's, each
+product's median L* error and CIEDE2000, each group's median CIEDE2000 and L* bias. A picture
+(benchmarks/results/skin_tones_sheet.png): one face per group, each product tried on beside its Fast estimate tried on.
+Every look is kept in --cache (a JSON line each): a killed run resumes where it stopped.
+Writes benchmarks/results/skin_tones.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.common import machine, table
+
+ROOT = Path(__file__).resolve().parents[1]
+FACES = ROOT / "data" / "faces" / "london" / "faces.json"
+RESULTS = Path(__file__).parent / "results"
+MODEL = ROOT / "blender_addon" / "models" / "lipstick_encoder.onnx"
+PRODUCTS = ("Bare Nude", "Peach Balm", "Coral Crush", "Rose Satin", "Dusty Rose Matte", "Terracotta", "Classic Red",
+            "Cherry Gloss", "Berry Stain", "Chocolate", "Plum", "Burgundy Matte", "Espresso", "Goth Black Matte")
+GROUPS = ("black", "east_asian", "west_asian", "white")
+SOURCES = (0, 1)  # default-scene sources the products are compared on
+SAMPLES = 16
+CELL = 96  # px: each cell of the picture
+
+
+def evaluation_faces(limit: int) -> list[dict]:
+    """The evaluation people's neutral portraits, groups interleaved (so a partial run spans the groups)."""
+    records = [r for r in json.loads(FACES.read_text()) if r["split"] == "evaluation" and r["expression"] == "neutral"]
+    by_group = [[r for r in records if r["group"] == g] for g in GROUPS]
+    interleaved = [r for row in zip(*[g + [None] * (10 - len(g)) for g in by_group]) for r in row if r is not None]
+    return interleaved[:limit] if limit else interleaved
+
+
+def apparent_lab(values: dict[str, float]) -> np.ndarray:
+    """CIELAB (3,) of a product's apparent colour: its region's mean colour on the default lips, median over SOURCES."""
+    from blender_addon.matching.photo_fit import apparent_colour
+    from vto_core.colour import srgb_to_lab
+
+    return srgb_to_lab(apparent_colour("lipstick", values, SOURCES)["mean"]).astype(float)
+
+
+def read_back(path: Path, model: Path, quality: str) -> dict[str, float]:
+    """What `vto match` writes for the photo at `path` (all parameters)."""
+    from blender_addon.matching.match import match
+
+    return match(str(model), str(path), quality=quality)["params"]
+
+
+def looks(faces: list[dict], args, cache: Path) -> list[dict]:
+    """One row per face and product: the truth's and each method's estimate and apparent CIELAB; cached."""
+    from blender_addon.renderers.tryon import tryon_lipstick
+    from vto_core.imageio import read_image, write_image
+    from vto_core.presets import load_presets
+
+    presets = load_presets("lipstick")
+    done = {}
+    if cache.is_file():
+        for line in cache.read_text().splitlines():
+            row = json.loads(line)
+            done[row["face"], row["product"]] = row
+    truth_lab = {name: apparent_lab(presets[name]) for name in PRODUCTS}
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        for index, record in enumerate(faces):
+            photo = None
+            for name in PRODUCTS:
+                key = (record["file"], name)
+                methods = {"fast": (MODEL, "fast")}
+                if index % args.better_every == 0:
+                    methods["better"] = (MODEL, "better")
+                if args.best_every and index % args.best_every == 0:
+                    methods["best"] = (MODEL, "best")
+                methods.update({f"fast ({label})": (Path(model), "fast") for label, model in args.compare})
+                row = done.get(key, {"face": record["file"], "group": record["group"], "product": name,
+                                     "truth": truth_lab[name].tolist(), "estimates": {}})
+                todo = [m for m in methods if m not in row["estimates"]]
+                if todo:
+                    if photo is None:
+                        photo = read_image(ROOT / record["file"])[0]
+                    worn = Path(folder) / "worn.png"
+                    write_image(worn, tryon_lipstick(photo, presets[name], samples=SAMPLES))
+                    for method in todo:
+                        values = read_back(worn, *methods[method])
+                        row["estimates"][method] = {"values": values, "lab": apparent_lab(values).tolist()}
+                    with cache.open("a") as out:
+                        out.write(json.dumps(row) + "\n")
+                rows.append(row)
+            print(f"{record['file']} done", file=sys.stderr, flush=True)
+    return rows
+
+
+def slope(truth: np.ndarray, estimate: np.ndarray) -> float:
+    """Least-squares slope of estimate on truth."""
+    return float(np.polyfit(truth, estimate, 1)[0])
+
+
+def summarise(rows: list[dict]) -> tuple[list[str], dict[str, dict]]:
+    """(the methods, method -> its figures: slope, per product and per group medians)."""
+    from vto_core.colour import ciede2000
+
+    methods = sorted({m for r in rows for m in r["estimates"]}, key=lambda m: (m != "fast", m))
+    figures = {}
+    for method in methods:
+        have = [r for r in rows if method in r["estimates"]]
+        truth = np.array([r["truth"] for r in have])
+        found = np.array([r["estimates"][method]["lab"] for r in have])
+        error = np.array([float(ciede2000(t, f)) for t, f in zip(truth, found)])
+        bias = found[:, 0] - truth[:, 0]
+        products = {name: (float(np.median(bias[[r["product"] == name for r in have]])),
+                           float(np.median(error[[r["product"] == name for r in have]])))
+                    for name in PRODUCTS if any(r["product"] == name for r in have)}
+        groups = {g: (float(np.median(error[[r["group"] == g for r in have]])),
+                      float(np.median(bias[[r["group"] == g for r in have]])))
+                  for g in GROUPS if any(r["group"] == g for r in have)}
+        figures[method] = {"looks": len(have), "slope": slope(truth[:, 0], found[:, 0]),
+                           "chroma_slope": slope(np.hypot(truth[:, 1], truth[:, 2]), np.hypot(found[:, 1], found[:, 2])),
+                           "median": float(np.median(error)), "products": products, "groups": groups}
+    return methods, figures
+
+
+def sheet(faces: list[dict], rows: list[dict]) -> np.ndarray:
+    """One face per group: per product, its lips tried on | its Fast estimate tried on (CELL x CELL each)."""
+    from blender_addon.renderers.tryon import tryon_view
+    from vto_core.imageio import read_image
+    from vto_core.presets import load_presets
+
+    presets = load_presets("lipstick")
+    estimates = {(r["face"], r["product"]): r["estimates"]["fast"]["values"] for r in rows}
+    picture = []
+    for record in [next(r for r in faces if r["group"] == g) for g in GROUPS if any(r["group"] == g for r in faces)]:
+        photo = read_image(ROOT / record["file"])[0]
+        cells = []
+        for name in PRODUCTS:
+            cells.append(tryon_view(photo, presets[name], CELL, SAMPLES, 0)[1])
+            cells.append(tryon_view(photo, estimates[record["file"], name], CELL, SAMPLES, 0)[1])
+            cells.append(np.ones((CELL, 4, 3), np.float32))  # a white gap between products
+        picture.append(np.concatenate(cells, axis=1))
+    return np.concatenate(picture, axis=0)
+
+
+def report(methods: list[str], figures: dict, faces: int, argv: list[str]) -> str:
+    """benchmarks/results/skin_tones.md's text."""
+    lines = ["# Products on faces of every skin tone, under one light", "",
+             f"`python -m benchmarks.bench_skin_tones {shlex.join(argv)}` on {machine()}: {faces} faces of the London "
+             f"Set's evaluation people (never trained on), {len(PRODUCTS)} products tried on each (16 spp), read back "
+             "from an 8-bit PNG as `vto match` reads a photo. Truth and estimate are compared as products: their "
+             "apparent colour on the default lips (sources 0, 1), CIELAB.", "",
+             table(["method", "looks", "L* slope", "chroma slope", "median CIEDE2000"],
+                   [[m, figures[m]["looks"], f"{figures[m]['slope']:.2f}", f"{figures[m]['chroma_slope']:.2f}",
+                     f"{figures[m]['median']:.2f}"] for m in methods]), "",
+             "Each product: median L* error (estimate - truth) / median CIEDE2000, per method.", "",
+             table(["product"] + methods, [[name] + [
+                 "{:+.1f} / {:.1f}".format(*figures[m]["products"][name]) if name in figures[m]["products"] else "-"
+                 for m in methods] for name in PRODUCTS]), "",
+             "Each group: median CIEDE2000 / median L* bias, per method.", "",
+             table(["group"] + methods, [[g] + [
+                 "{:.1f} / {:+.1f}".format(*figures[m]["groups"][g]) if g in figures[m]["groups"] else "-"
+                 for m in methods] for g in GROUPS]), "",
+             "![each product tried on (left) beside its Fast estimate tried on (right), one face per group]"
+             "(skin_tones_sheet.png)", ""]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> None:
+    argv = sys.argv[1:] if argv is None else argv
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--faces", type=int, default=0, help="the first N evaluation faces, groups interleaved (0: all)")
+    parser.add_argument("--better-every", type=int, default=1, help="Better on every K-th face")
+    parser.add_argument("--best-every", type=int, default=0, help="Best on every K-th face (0: none)")
+    parser.add_argument("--compare", action="append", default=[], type=lambda t: tuple(t.split("=", 1)),
+                        help="NAME=MODEL: Fast with another encoder too")
+    parser.add_argument("--cache", default=str(ROOT / "out" / "skin_tones.jsonl"))
+    parser.add_argument("--no-sheet", action="store_true")
+    args = parser.parse_args(argv)
+    cache = Path(args.cache)
+    cache.parent.mkdir(parents=True, exist_ok=True)
+    faces = evaluation_faces(args.faces)
+    rows = looks(faces, args, cache)
+    methods, figures = summarise(rows)
+    RESULTS.mkdir(exist_ok=True)
+    if not args.no_sheet:
+        from vto_core.imageio import write_image
+
+        write_image(RESULTS / "skin_tones_sheet.png", sheet(faces, rows))
+    (RESULTS / "skin_tones.md").write_text(report(methods, figures, len(faces), argv))
+    print(json.dumps({m: {k: figures[m][k] for k in ("looks", "slope", "median")} for m in methods}))
+
+
+if __name__ == "__main__":
+    main()
