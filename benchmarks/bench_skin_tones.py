@@ -11,6 +11,9 @@ and mattes. Each is tried on each face with the try-on renderer (16 spp), writte
 answer for every photo, wins nothing. Reported per quality: the slope of the estimate's L* on the truth's, each
 product's median L* error and CIEDE2000, each group's median CIEDE2000 and L* bias. A picture
 (benchmarks/results/skin_tones_sheet.png): one face per group, each product tried on beside its Fast estimate tried on.
+Beside it, a suspect measured where the truth is known without a face: the same products rendered on the default lips
+(sources 2-4, source hidden), read by each encoder at the render's exposure and +-0.3 stops (the face looks' camera
+augmentation): the L* slope in the encoder's own domain, and how far an exposure moves the estimate.
 Every look is kept in --cache (a JSON line each): a killed run resumes where it stopped.
 Writes benchmarks/results/skin_tones.md.
 """
@@ -106,6 +109,34 @@ def looks(faces: list[dict], args, cache: Path) -> list[dict]:
     return rows
 
 
+RENDER_SOURCES = (2, 3, 4)  # default-scene sources the products are rendered on and read from (not SOURCES)
+STOPS = (-0.3, 0.0, 0.3)
+
+
+def on_default_renders(encoders: dict[str, Path]) -> dict[str, dict[float, tuple[float, float]]]:
+    """encoder -> {stops: (L* slope, mean L* bias)} of the products rendered on RENDER_SOURCES at 64 px, scaled by
+    2**stops in linear light, read by the encoder alone and compared as products (apparent_lab)."""
+    from blender_addon.renderers.products import render
+    from vto_core.colour import linear_to_srgb, srgb_to_linear
+    from vto_core.inference import EncoderSession
+    from vto_core.presets import load_presets
+
+    presets = load_presets("lipstick")
+    sessions = {name: EncoderSession(str(path)) for name, path in encoders.items()}
+    found = {name: {stops: ([], []) for stops in STOPS} for name in sessions}
+    for product in PRODUCTS:
+        truth = apparent_lab(presets[product])[0]
+        for source in RENDER_SOURCES:
+            image = render("lipstick", presets[product], source, 64, SAMPLES, 0)
+            for stops in STOPS:
+                shown = linear_to_srgb(np.clip(srgb_to_linear(image) * 2.0 ** stops, 0.0, 1.0)).astype(np.float32)
+                for name, session in sessions.items():
+                    found[name][stops][0].append(truth)
+                    found[name][stops][1].append(apparent_lab(session.predict(shown)[0])[0])
+    return {name: {stops: (slope(np.array(t), np.array(e)), float(np.mean(np.array(e) - np.array(t))))
+                   for stops, (t, e) in by_stops.items()} for name, by_stops in found.items()}
+
+
 def slope(truth: np.ndarray, estimate: np.ndarray) -> float:
     """Least-squares slope of estimate on truth."""
     return float(np.polyfit(truth, estimate, 1)[0])
@@ -129,7 +160,11 @@ def summarise(rows: list[dict]) -> tuple[list[str], dict[str, dict]]:
         groups = {g: (float(np.median(error[[r["group"] == g for r in have]])),
                       float(np.median(bias[[r["group"] == g for r in have]])))
                   for g in GROUPS if any(r["group"] == g for r in have)}
+        fast = np.array([r["estimates"]["fast"]["lab"] for r in have])  # Fast on the same looks: the dial's measure
         figures[method] = {"looks": len(have), "slope": slope(truth[:, 0], found[:, 0]),
+                           "fast_same": (slope(truth[:, 0], fast[:, 0]),
+                                         float(np.median([ciede2000(t, f) for t, f in zip(truth, fast)]))),
+                           "groups_seen": sorted({r["group"] for r in have}),
                            "chroma_slope": slope(np.hypot(truth[:, 1], truth[:, 2]), np.hypot(found[:, 1], found[:, 2])),
                            "median": float(np.median(error)), "products": products, "groups": groups}
     return methods, figures
@@ -155,16 +190,18 @@ def sheet(faces: list[dict], rows: list[dict]) -> np.ndarray:
     return np.concatenate(picture, axis=0)
 
 
-def report(methods: list[str], figures: dict, faces: int, argv: list[str]) -> str:
+def report(methods: list[str], figures: dict, faces: int, argv: list[str], renders: dict) -> str:
     """benchmarks/results/skin_tones.md's text."""
     lines = ["# Products on faces of every skin tone, under one light", "",
              f"`python -m benchmarks.bench_skin_tones {shlex.join(argv)}` on {machine()}: {faces} faces of the London "
              f"Set's evaluation people (never trained on), {len(PRODUCTS)} products tried on each (16 spp), read back "
              "from an 8-bit PNG as `vto match` reads a photo. Truth and estimate are compared as products: their "
              "apparent colour on the default lips (sources 0, 1), CIELAB.", "",
-             table(["method", "looks", "L* slope", "chroma slope", "median CIEDE2000"],
-                   [[m, figures[m]["looks"], f"{figures[m]['slope']:.2f}", f"{figures[m]['chroma_slope']:.2f}",
-                     f"{figures[m]['median']:.2f}"] for m in methods]), "",
+             table(["method", "looks", "groups", "L* slope", "chroma slope", "median CIEDE2000",
+                    "Fast on the same looks: L* slope / CIEDE2000"],
+                   [[m, figures[m]["looks"], ", ".join(figures[m]["groups_seen"]), f"{figures[m]['slope']:.2f}",
+                     f"{figures[m]['chroma_slope']:.2f}", f"{figures[m]['median']:.2f}",
+                     "{:.2f} / {:.2f}".format(*figures[m]["fast_same"])] for m in methods]), "",
              "Each product: median L* error (estimate - truth) / median CIEDE2000, per method.", "",
              table(["product"] + methods, [[name] + [
                  "{:+.1f} / {:.1f}".format(*figures[m]["products"][name]) if name in figures[m]["products"] else "-"
@@ -174,7 +211,14 @@ def report(methods: list[str], figures: dict, faces: int, argv: list[str]) -> st
                  "{:.1f} / {:+.1f}".format(*figures[m]["groups"][g]) if g in figures[m]["groups"] else "-"
                  for m in methods] for g in GROUPS]), "",
              "![each product tried on (left) beside its Fast estimate tried on (right), one face per group]"
-             "(skin_tones_sheet.png)", ""]
+             "(skin_tones_sheet.png)", "",
+             "## In the encoder's own domain: default renders, source hidden, under another exposure", "",
+             f"The {len(PRODUCTS)} products rendered on the default lips (sources {', '.join(map(str, RENDER_SOURCES))},"
+             " 64 px, 16 spp), each render also scaled by +-0.3 stops in linear light (the face looks' camera "
+             "augmentation), read by the encoder alone: the L* slope and the mean L* bias of the estimate.", "",
+             table(["encoder"] + [f"{stops:+.1f} stops: slope / bias" for stops in STOPS],
+                   [[name] + ["{:.2f} / {:+.1f}".format(*by_stops[stops]) for stops in STOPS]
+                    for name, by_stops in renders.items()]), ""]
     return "\n".join(lines)
 
 
@@ -194,12 +238,13 @@ def main(argv: list[str] | None = None) -> None:
     faces = evaluation_faces(args.faces)
     rows = looks(faces, args, cache)
     methods, figures = summarise(rows)
+    renders = on_default_renders({"shipped": MODEL, **{label: Path(model) for label, model in args.compare}})
     RESULTS.mkdir(exist_ok=True)
     if not args.no_sheet:
         from vto_core.imageio import write_image
 
         write_image(RESULTS / "skin_tones_sheet.png", sheet(faces, rows))
-    (RESULTS / "skin_tones.md").write_text(report(methods, figures, len(faces), argv))
+    (RESULTS / "skin_tones.md").write_text(report(methods, figures, len(faces), argv, renders))
     print(json.dumps({m: {k: figures[m][k] for k in ("looks", "slope", "median")} for m in methods}))
 
 
