@@ -170,6 +170,38 @@ def summarise(rows: list[dict]) -> tuple[list[str], dict[str, dict]]:
     return methods, figures
 
 
+OPACITY_BANDS = ((0.0, 0.8), (0.8, 0.96), (0.96, 1.01))
+DARK = ("Chocolate", "Espresso", "Burgundy Matte", "Goth Black Matte")
+
+
+def fast_parameters(rows: list[dict]) -> str:
+    """Where Fast's lightness goes, in its parameters: per band of the product's true opacity, the L* slope, median
+    |L* error| and the estimate's median opacity; the correlation of opacity error and L* error; the dark products'
+    true and estimated (median) opacity and colour."""
+    from vto_core.presets import load_presets
+
+    presets = load_presets("lipstick")
+    true_opacity = np.array([presets[r["product"]]["opacity"] for r in rows])
+    opacity = np.array([r["estimates"]["fast"]["values"]["opacity"] for r in rows])
+    truth = np.array([r["truth"][0] for r in rows])
+    error = np.array([r["estimates"]["fast"]["lab"][0] for r in rows]) - truth
+    bands = [[f"[{low:g}, {high:g})", int(s.sum()), f"{slope(truth[s], truth[s] + error[s]):.2f}",
+              f"{np.median(np.abs(error[s])):.1f}", f"{np.median(opacity[s]):.2f}"]
+             for low, high in OPACITY_BANDS for s in [(true_opacity >= low) & (true_opacity < high)]]
+    names = ("opacity", "red", "green", "blue")
+    dark = [[name, " / ".join(f"{presets[name][n]:g}" for n in names),
+             " / ".join(f"{v:.2f}" if n == "opacity" else f"{v:.0f}" for n, v in zip(names, np.median(
+                 [[r["estimates"]["fast"]["values"][n] for n in names] for r in rows if r["product"] == name], axis=0)))]
+            for name in DARK]
+    correlation = float(np.corrcoef(opacity - true_opacity, error)[0, 1])
+    return "\n".join([
+        "## Where Fast's lightness goes, in its parameters", "",
+        f"Fast's opacity error and L* error correlate {correlation:+.2f} over the {len(rows)} looks (too little opacity "
+        "lets the bare lips show through, lighter).", "",
+        table(["true opacity", "looks", "L* slope", "median abs L* error", "Fast's median opacity"], bands), "",
+        table(["dark product", "truth: opacity / R / G / B", "Fast (median): opacity / R / G / B"], dark), ""])
+
+
 def sheet(faces: list[dict], rows: list[dict]) -> np.ndarray:
     """One face per group: per product, its lips tried on | its Fast estimate tried on (CELL x CELL each)."""
     from blender_addon.renderers.tryon import tryon_view
@@ -190,7 +222,7 @@ def sheet(faces: list[dict], rows: list[dict]) -> np.ndarray:
     return np.concatenate(picture, axis=0)
 
 
-def report(methods: list[str], figures: dict, faces: int, argv: list[str], renders: dict) -> str:
+def report(methods: list[str], figures: dict, faces: int, argv: list[str], renders: dict, parameters: str) -> str:
     """benchmarks/results/skin_tones.md's text."""
     lines = ["# Products on faces of every skin tone, under one light", "",
              f"`python -m benchmarks.bench_skin_tones {shlex.join(argv)}` on {machine()}: {faces} faces of the London "
@@ -218,7 +250,7 @@ def report(methods: list[str], figures: dict, faces: int, argv: list[str], rende
              "augmentation), read by the encoder alone: the L* slope and the mean L* bias of the estimate.", "",
              table(["encoder"] + [f"{stops:+.1f} stops: slope / bias" for stops in STOPS],
                    [[name] + ["{:.2f} / {:+.1f}".format(*by_stops[stops]) for stops in STOPS]
-                    for name, by_stops in renders.items()]), ""]
+                    for name, by_stops in renders.items()]), "", parameters]
     return "\n".join(lines)
 
 
@@ -244,7 +276,7 @@ def main(argv: list[str] | None = None) -> None:
         from vto_core.imageio import write_image
 
         write_image(RESULTS / "skin_tones_sheet.png", sheet(faces, rows))
-    (RESULTS / "skin_tones.md").write_text(report(methods, figures, len(faces), argv, renders))
+    (RESULTS / "skin_tones.md").write_text(report(methods, figures, len(faces), argv, renders, fast_parameters(rows)))
     print(json.dumps({m: {k: figures[m][k] for k in ("looks", "slope", "median")} for m in methods}))
 
 
