@@ -40,8 +40,8 @@ def estimates(session, region: tuple[np.ndarray, np.ndarray], qualities) -> dict
     """quality -> (all values, ms): the encoder on the region's largest hair square fitted through the colour imitator
     (Fast), or through the stage from it or the encoder's (Better); as a Match does
     (blender_addon.matching.apply.iter_compute)."""
-    from blender_addon.matching.photo_fit import iter_fit_photo, photo_values
     from blender_addon.matching.colour_fit import fit_photo_fast
+    from blender_addon.matching.photo_fit import iter_fit_photo, photo_values
     from blender_addon.shipped import photo_reader
     from blender_addon.matching.refine import drain
 

@@ -58,8 +58,8 @@ def lips_estimates(path: Path, mask: Path | None, qualities: list[str]) -> dict[
     """method -> all parameter values for the photo at `path` (its lips mask at `mask`, or found): the shipped
     qualities through blender_addon.matching.match.match, and the two readings with the photo's light left in."""
     from blender_addon.matching.match import match
-    from blender_addon.matching.photo_fit import photo_values
     from blender_addon.matching.colour_fit import fit_colour
+    from blender_addon.matching.photo_fit import photo_values
     from blender_addon.matching.reference import read_reference
     from vto_core.inference import EncoderSession
 

@@ -197,8 +197,8 @@ def run_eval(model: str, out: str, settings: EvalSettings) -> dict:
     from tqdm import tqdm
 
     from blender_addon.matching.match import SourceRenderer
-    from blender_addon.matching.photo_fit import iter_fit_photo
     from blender_addon.matching.colour_fit import fit_photo_fast
+    from blender_addon.matching.photo_fit import iter_fit_photo
     from blender_addon.matching.refine import SIGMA_FROM_MEAN, drain, refine_by_render
     from vto_core.photo.photo_light import light_of, neutral_photo
 

@@ -38,8 +38,8 @@ from vto_core.specs import RendererSpec
 
 from ..renderers.products import blender_side
 from ..shipped import MODELS
-from .photo_fit import NO_REGION, iter_fit_photo, photo_values
 from .colour_fit import fast_polish_passes, iter_fit_photo_fast
+from .photo_fit import NO_REGION, iter_fit_photo, photo_values
 from .reference import absolute_path, read_reference
 from .refine import drain
 

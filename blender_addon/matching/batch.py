@@ -35,8 +35,8 @@ from vto_core.specs import ParamSpec, RendererSpec
 
 from ..renderers.products import blender_side
 from .match import own_source
-from .photo_fit import photo_values
 from .colour_fit import fit_photo_fast
+from .photo_fit import photo_values
 from .reference import read_reference
 
 ESTIMATES = "estimates"

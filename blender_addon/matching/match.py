@@ -26,8 +26,8 @@ from vto_core.inference import EncoderSession
 from vto_core.products import QUALITIES, get_product, get_spec
 
 from ..renderers.products import blender_side
-from .photo_fit import NO_REGION, iter_fit_photo, photo_values
 from .colour_fit import fit_photo_fast
+from .photo_fit import NO_REGION, iter_fit_photo, photo_values
 from vto_core.photo.photo_reader import at_size
 
 from .reference import read_reference

@@ -10,8 +10,8 @@ bpy = pytest.importorskip("bpy")
 
 from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
-from blender_addon.matching.photo_fit import apparent_colour, iter_fit_photo, photo_values  # noqa: E402
 from blender_addon.matching.colour_fit import iter_polish_colour  # noqa: E402
+from blender_addon.matching.photo_fit import apparent_colour, iter_fit_photo, photo_values  # noqa: E402
 from blender_addon.renderers.product_lipstick import RENDERER as LIPS_SIDE, LIPS_POOL, iter_lips_pool  # noqa: E402
 from blender_addon.matching.refine import drain  # noqa: E402
 from blender_addon.renderers.scene_lips import lips_mask  # noqa: E402
@@ -208,8 +208,8 @@ def test_fast_starts_its_colour_fit_round_the_hue_circle():
     """The encoder reads a near-grey hair's hue at random, and a fit settles where it starts on the circle: Fast's
     colour fit also starts a quarter, a half and three quarters of a turn on, and keeps the fit nearest the photo's
     statistics (a dark grey hair: 15x nearer than from the encoder's hue alone)."""
-    from blender_addon.matching.photo_fit import fit_start
     from blender_addon.matching.colour_fit import colour_imitator_path, fit_colour
+    from blender_addon.matching.photo_fit import fit_start
     from blender_addon.shipped import MODELS
     from vto_core.appearance import region_statistics
     from vto_core.colour_imitator import cached_imitator
