@@ -5,7 +5,7 @@
 Faces: the London Set's 39 evaluation people, neutral (data/faces/london: 10 black, 9 east Asian, 10 west Asian, 10
 white; one studio, one light, never trained on). Products: PRODUCTS, 14 presets from nude to espresso and black, glosses
 and mattes. Each is tried on each face with the try-on renderer (16 spp), written as an 8-bit PNG and read back as
-`vto match` reads a photo: Fast (the shipped encoder), Better and Best (on every K-th face), and Fast with each
+`vto match` reads a photo: Fast (the shipped encoder), Better and Best (on every K-th face of each group), and Fast with each
 --compare encoder. The truth and every estimate are compared as products: their apparent colour on the default lips
 (sources 0 and 1, blender_addon.matching.photo_fit.apparent_colour), in CIELAB; so copying the photo's colour, or one
 answer for every photo, wins nothing. Reported per quality: the slope of the estimate's L* on the truth's, each
@@ -86,9 +86,10 @@ def looks(faces: list[dict], args, cache: Path) -> list[dict]:
             for name in PRODUCTS:
                 key = (record["file"], name)
                 methods = {"fast": (MODEL, "fast")}
-                if index % args.better_every == 0:
+                block = index // len(GROUPS)  # one face of each group: every K-th block keeps the groups even
+                if block % args.better_every == 0:
                     methods["better"] = (MODEL, "better")
-                if args.best_every and index % args.best_every == 0:
+                if args.best_every and block % args.best_every == 0:
                     methods["best"] = (MODEL, "best")
                 methods.update({f"fast ({label})": (Path(model), "fast") for label, model in args.compare})
                 row = done.get(key, {"face": record["file"], "group": record["group"], "product": name,
@@ -258,8 +259,9 @@ def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--faces", type=int, default=0, help="the first N evaluation faces, groups interleaved (0: all)")
-    parser.add_argument("--better-every", type=int, default=1, help="Better on every K-th face")
-    parser.add_argument("--best-every", type=int, default=0, help="Best on every K-th face (0: none)")
+    parser.add_argument("--better-every", type=int, default=1,
+                        help="Better on every K-th face of each group (the faces interleave the groups)")
+    parser.add_argument("--best-every", type=int, default=0, help="Best on every K-th face of each group (0: none)")
     parser.add_argument("--compare", action="append", default=[], type=lambda t: tuple(t.split("=", 1)),
                         help="NAME=MODEL: Fast with another encoder too")
     parser.add_argument("--cache", default=str(ROOT / "out" / "skin_tones.jsonl"))
