@@ -22,7 +22,7 @@ from vto_core.specs import RendererSpec
 
 from ..renderers.lipstick import linked_inputs, scene_values
 from ..renderers.cycles import sample_setting
-from ..renderers.products import blender_side
+from ..renderers.products import blender_side, check_lighting
 
 _SOURCE_STREAM = 7
 _VARY_STREAM = 8
@@ -96,14 +96,11 @@ class DatasetJob:
             if not Path(self.photos).is_dir():
                 raise VtoError(f"--photos {self.photos} is not a folder")
             training_faces(self.photos)  # refuses a folder with nothing to train on
+        check_lighting(product, self.lighting, user_scene=self.scene is not None)
         if product.lightings and self.scene is None:
             from ..renderers.scene_lips import DEFAULT_LIGHTING
 
             self.lighting = self.lighting or DEFAULT_LIGHTING
-        elif self.lighting is not None:
-            from ..renderers.lighting import ONLY_LIPS
-
-            raise VtoError(ONLY_LIPS)
 
     def manifest(self) -> dict:
         """What manifest.json records: identical for every shard and rerun of the same dataset."""

@@ -25,7 +25,7 @@ from vto_core.errors import VtoError
 from vto_core.inference import EncoderSession
 from vto_core.products import QUALITIES, get_product, get_spec
 
-from ..renderers.products import blender_side
+from ..renderers.products import blender_side, check_lighting
 from .colour_fit import fit_photo_fast
 from .photo_fit import NO_REGION, iter_fit_photo, photo_values
 from vto_core.photo.photo_reader import at_size
@@ -61,10 +61,7 @@ class SourceRenderer:
                  lighting: str | None = None):
         self.spec = get_spec(renderer)
         self.res, self.samples, self.seed, self.renders, self.lighting = res, samples, seed, 0, lighting
-        if lighting is not None and not get_product(renderer).lightings:
-            from ..renderers.lighting import ONLY_LIPS
-
-            raise VtoError(ONLY_LIPS)
+        check_lighting(get_product(renderer), lighting)
         self.source, self.bound = source, blender_side(renderer).bind(source, res, samples, seed, lighting)
 
     def __call__(self, values: dict[str, float]) -> np.ndarray:

@@ -16,15 +16,18 @@ from .cycles import configure_cycles, render_passes, render_user_scene, to_displ
 from .scene_lips import applied, apply_source, build_lips_scene, use_lighting
 
 
+def material_nodes(material) -> list[bpy.types.Node]:
+    """The "VTO Lipstick" group nodes of `material` (none when it is None or has no node tree)."""
+    if material is None or not uses_nodes(material) or material.node_tree is None:
+        return []
+    return [n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeGroup" and n.node_tree is not None
+            and n.node_tree.name.startswith(GROUP_NAME)]
+
+
 def makeup_nodes(scene: bpy.types.Scene) -> list[bpy.types.Node]:
     """Every "VTO Lipstick" group node in the materials of `scene`'s objects."""
-    found = []
     materials = {slot.material for obj in scene.objects for slot in obj.material_slots if slot.material}
-    for material in materials:
-        if uses_nodes(material):
-            found += [n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeGroup"
-                      and n.node_tree is not None and n.node_tree.name.startswith(GROUP_NAME)]
-    return found
+    return [node for material in materials for node in material_nodes(material)]
 
 
 def material_name(node: bpy.types.Node) -> str:

@@ -13,7 +13,7 @@ from vto_core.errors import VtoError
 from vto_core.products import HAIR
 
 from ..shipped import DATA
-from .products import FIT_RES, BoundSource, ProductRenderer
+from .products import FIT_RES, BoundSource, ProductRenderer, is_seed
 
 # Default-scene seeds the photo fits render on, in order: apart from the benchmarks' sources 0-7 and eval's 5000 and up.
 FIT_SOURCES = (900001, 900002, 900003, 900004)
@@ -43,8 +43,7 @@ class HairRenderer(ProductRenderer):
     fit_sources = FIT_SOURCES
 
     def check_source(self, source):
-        seed_like = isinstance(source, (int, np.integer)) or str(source).isdigit()
-        if not seed_like and not Path(source).is_file():
+        if not is_seed(source) and not Path(source).is_file():
             raise VtoError(f"hair source {source} is neither a default-scene seed nor a photo")
 
     def render(self, values, source, res, samples, seed, lighting=None):
@@ -57,8 +56,8 @@ class HairRenderer(ProductRenderer):
 
         self.check_source(source)
         hair = resolve_hair_source(source, res, samples, seed)
-        own_photo = not (isinstance(source, (int, np.integer)) or str(source).isdigit())
-        return BoundSource(lambda values: run_hair_stage(hair, values), lambda: hair.rgb, lambda: hair.mask, own_photo)
+        return BoundSource(lambda values: run_hair_stage(hair, values), lambda: hair.rgb, lambda: hair.mask,
+                           not is_seed(source))
 
     def region_renderer(self, source, res, samples, tones=None):
         from .hair import run_hair_stage

@@ -92,13 +92,9 @@ class LipstickRenderer(ProductRenderer):
                 for i in order[:count]]
 
     def nodes(self, material):
-        from ..compat import uses_nodes
-        from .nodes_lipstick import GROUP_NAME
+        from .lipstick import material_nodes
 
-        if material is None or not uses_nodes(material) or material.node_tree is None:
-            return []
-        return [n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeGroup" and n.node_tree is not None
-                and n.node_tree.name.startswith(GROUP_NAME)]
+        return material_nodes(material)
 
     def add_group(self, obj):
         """A new "VTO Lipstick" material on `obj` (a mesh): a Principled BSDF (the bare lips) -> the lipstick group ->

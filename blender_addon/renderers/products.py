@@ -16,6 +16,20 @@ from vto_core.specs import RendererSpec
 FIT_RES = 64  # px: the default-scene renders photo fits compare statistics on
 
 
+def is_seed(source) -> bool:
+    """Whether a source names a default-scene seed (an int, or digits), not a photo."""
+    return isinstance(source, (int, np.integer)) or str(source).isdigit()
+
+
+def check_lighting(product: Product, lighting: str | None, user_scene: bool = False) -> None:
+    """VtoError (one line) where `lighting` is asked of a scene that keeps its own light: the default scene of a product
+    without lightings (the hair), or a user's scene."""
+    if lighting is not None and (user_scene or not product.lightings):
+        from .lighting import ONLY_LIPS
+
+        raise VtoError(ONLY_LIPS)
+
+
 class ProductRenderer:
     """What the add-on needs of a product in Blender; one subclass a product, its module's RENDERER.
 
@@ -28,7 +42,7 @@ class ProductRenderer:
 
     def check_source(self, source) -> None:
         """A one-line error for a source this product cannot render on."""
-        if not (isinstance(source, (int, np.integer)) or str(source).isdigit()):
+        if not is_seed(source):
             raise VtoError(f"{self.product.name} sources are seeds of the default {self.product.region} scene (an "
                            f"integer), got '{source}'")
 
@@ -125,8 +139,5 @@ def render(renderer: str, values: dict[str, float], source, res: int = 64, sampl
     """
     values = get_spec(renderer).check_values(values)
     product = get_product(renderer)
-    if lighting is not None and not product.lightings:
-        from .lighting import ONLY_LIPS
-
-        raise VtoError(ONLY_LIPS)
+    check_lighting(product, lighting)
     return blender_side(product).render(values, source, res, samples, seed, lighting)
