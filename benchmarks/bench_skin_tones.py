@@ -24,7 +24,6 @@ import argparse
 import json
 import shlex
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -80,33 +79,35 @@ def looks(faces: list[dict], args, cache: Path) -> list[dict]:
             done[row["face"], row["product"]] = row
     truth_lab = {name: apparent_lab(presets[name]) for name in PRODUCTS}
     rows = []
-    with tempfile.TemporaryDirectory() as folder:
-        for index, record in enumerate(faces):
-            photo = None
-            for name in PRODUCTS:
-                key = (record["file"], name)
-                methods = {"fast": (MODEL, "fast")}
-                block = index // len(GROUPS)  # one face of each group: every K-th block keeps the groups even
-                if block % args.better_every == 0:
-                    methods["better"] = (MODEL, "better")
-                if args.best_every and block % args.best_every == 0:
-                    methods["best"] = (MODEL, "best")
-                methods.update({f"fast ({label})": (Path(model), "fast") for label, model in args.compare})
-                row = done.get(key, {"face": record["file"], "group": record["group"], "product": name,
-                                     "truth": truth_lab[name].tolist(), "estimates": {}})
-                todo = [m for m in methods if m not in row["estimates"]]
-                if todo:
+    worn_dir = cache.with_suffix("")  # the tried-on photos, beside the cache
+    worn_dir.mkdir(parents=True, exist_ok=True)
+    for index, record in enumerate(faces):
+        photo = None
+        for name in PRODUCTS:
+            key = (record["file"], name)
+            methods = {"fast": (MODEL, "fast")}
+            block = index // len(GROUPS)  # one face of each group: every K-th block keeps the groups even
+            if args.better_every and block % args.better_every == 0:
+                methods["better"] = (MODEL, "better")
+            if args.best_every and block % args.best_every == 0:
+                methods["best"] = (MODEL, "best")
+            methods.update({f"fast ({label})": (Path(model), "fast") for label, model in args.compare})
+            row = done.get(key, {"face": record["file"], "group": record["group"], "product": name,
+                                 "truth": truth_lab[name].tolist(), "estimates": {}})
+            todo = [m for m in methods if m not in row["estimates"]]
+            if todo:
+                worn = worn_dir / f"{Path(record['file']).stem}_{name.replace(' ', '_')}.png"
+                if not worn.is_file():  # the try-on is seeded: a look's photo is the same in every run
                     if photo is None:
                         photo = read_image(ROOT / record["file"])[0]
-                    worn = Path(folder) / "worn.png"
                     write_image(worn, tryon_lipstick(photo, presets[name], samples=SAMPLES))
-                    for method in todo:
-                        values = read_back(worn, *methods[method])
-                        row["estimates"][method] = {"values": values, "lab": apparent_lab(values).tolist()}
-                    with cache.open("a") as out:
-                        out.write(json.dumps(row) + "\n")
-                rows.append(row)
-            print(f"{record['file']} done", file=sys.stderr, flush=True)
+                for method in todo:
+                    values = read_back(worn, *methods[method])
+                    row["estimates"][method] = {"values": values, "lab": apparent_lab(values).tolist()}
+                with cache.open("a") as out:
+                    out.write(json.dumps(row) + "\n")
+            rows.append(row)
+        print(f"{record['file']} done", file=sys.stderr, flush=True)
     return rows
 
 
@@ -260,7 +261,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--faces", type=int, default=0, help="the first N evaluation faces, groups interleaved (0: all)")
     parser.add_argument("--better-every", type=int, default=1,
-                        help="Better on every K-th face of each group (the faces interleave the groups)")
+                        help="Better on every K-th face of each group (the faces interleave the groups; 0: none)")
     parser.add_argument("--best-every", type=int, default=0, help="Best on every K-th face of each group (0: none)")
     parser.add_argument("--compare", action="append", default=[], type=lambda t: tuple(t.split("=", 1)),
                         help="NAME=MODEL: Fast with another encoder too")
