@@ -8,6 +8,10 @@ wheels listed in the manifest (Blender installs them into its extensions' site-p
     5.1+) and the pure-Python cma and tqdm: the wheels the source manifest names, taken from --wheels DIR when they
     are there, otherwise fetched with `pip download` now, at build time (never when the add-on runs).
 
+The models ship in the add-on's own folder: each declared product's default encoder and model card
+(models/<name>_encoder.onnx and .md) are checked before the build, which stops with one line naming any missing (a zip
+without one would match nothing for that product).
+
 One zip holds both Pythons' wheels: Blender's tool derives the zip's Python versions from the wheel names (3.11 and
 3.13), and Blender installs only the wheels of its own Python, so the same zip installs on 4.2-5.0 and on 5.1+.
 
@@ -137,6 +141,19 @@ def fetch_wheel(filename: str, dest: Path, cache: Path | None) -> Path:
     return dest / filename
 
 
+def shipped_models(addon: Path = ADDON) -> list[str]:
+    """The files under models/ that each declared product (vto_core.products) ships: its default encoder
+    (<name>_encoder.onnx, the one Match reads) and its model card; exits with one line naming what is missing."""
+    from vto_core.products import PRODUCTS
+
+    names = [f"{product.name}_encoder{suffix}" for product in PRODUCTS.values() for suffix in (".onnx", ".md")]
+    missing = [name for name in names if not (addon / "models" / name).is_file()]
+    if missing:
+        sys.exit(f"build_extension: {addon.name}/models lacks {', '.join(missing)}: each product ships its encoder "
+                 "and model card")
+    return names
+
+
 def toml_list(key: str, values: list[str]) -> str:
     return f"{key} = [\n" + "".join(f'  "{v}",\n' for v in values) + "]"
 
@@ -161,6 +178,7 @@ def build(output_dir: Path, platforms: list[str] | None = None, wheels_dir: Path
     if unknown:
         sys.exit(f"build_extension: platform(s) {', '.join(unknown)} not declared in the manifest ({declared})")
     listed = [Path(w).name for w in manifest["wheels"] if not Path(w).name.startswith("vto_core-")]
+    shipped_models()  # copied below with the rest of the add-on: refuse a zip without a product's encoder
     with tempfile.TemporaryDirectory() as staging:
         package = Path(staging) / manifest["id"]
         shutil.copytree(ADDON, package, ignore=IGNORE)

@@ -43,11 +43,41 @@ def colour_dataset(tmp_path_factory):
     return _render(tmp_path_factory, "colour", 160, "red,green,blue")
 
 
-def _render(tmp_path_factory, name, n, params, *extra):
+@pytest.fixture(scope="session")
+def eyeshadow_encoder(tmp_path_factory):
+    """A tiny eye-shadow encoder (opacity and colour), trained a few steps on 8 looks of the default eye at 16 px and
+    exported to ONNX: Match, batch and the asset library are tested without the shipped eyeshadow_encoder.onnx."""
+    pytest.importorskip("torch")
+    data = _render(tmp_path_factory, "eyeshadow", 8, DATASET_PARAMS, renderer="eyeshadow")
+    return _tiny_trained_encoder(data, data.parent / "eyeshadow_encoder")
+
+
+@pytest.fixture(scope="session")
+def tiny_trained_encoder():
+    """(dataset folder, out) -> the path of an encoder trained 4 steps on it and exported to `out`.onnx."""
+    pytest.importorskip("torch")
+    return _tiny_trained_encoder
+
+
+def _tiny_trained_encoder(data, out) -> str:
+    """An encoder trained 4 steps (graphics loss, 8 channels, 2 layers) on dataset `data`, exported to `out`.onnx."""
+    from training.config import EncoderConfig, resolve_config
+    from training.export import export_encoder
+    from training.train_encoder import train_encoder
+
+    run = train_encoder(str(data), None, str(out), resolve_config(EncoderConfig, None, [
+        "perceptual=ssim_l1", "batch_size=4", "width=8", "n_layers=2", "pool_size=1", "loss=graphics", "steps=4",
+        "log_every=2"]))
+    model = f"{out}.onnx"
+    export_encoder(str(run.path), model)
+    return model
+
+
+def _render(tmp_path_factory, name, n, params, *extra, renderer="lipstick"):
     pytest.importorskip("bpy")
     from blender_addon.datasets.commands import cmd_dataset
 
     out = tmp_path_factory.mktemp("data") / name
-    assert cmd_dataset(["lipstick", "--out", str(out), "--n", str(n), "--seed", "11", "--res", "16", "--samples", "2",
+    assert cmd_dataset([renderer, "--out", str(out), "--n", str(n), "--seed", "11", "--res", "16", "--samples", "2",
                         "--params", params, "--quiet", *extra]) == 0
     return out

@@ -1,4 +1,4 @@
-"""The products (lipstick, hair): each declared once, without bpy; code above asks the declaration, never the name.
+"""The products (lipstick, hair, eye shadow): each declared once, without bpy; code asks the declaration, not the name.
 
 A product is one frozen `Product`: its parameter spec, whether it is a material's node group or a compositor stage, the
 region it reads in a photo, what a photo fixes, its fit policy (the qualities, what each costs, which are offered),
@@ -14,7 +14,7 @@ from types import MappingProxyType
 
 from .errors import VtoError
 from .hair import PHOTO_HAIR
-from .specs import RendererSpec, hair_spec, lipstick_spec
+from .specs import RendererSpec, eyeshadow_spec, hair_spec, lipstick_spec
 
 QUALITIES = ("FAST", "BETTER", "BEST")  # the panel's choice: the encoder (with its colour fit, where it pays), or a fit
 MATERIAL, COMPOSITOR = "MATERIAL", "COMPOSITOR"  # where a product's renderer lives: a material's node group, or a stage
@@ -81,6 +81,7 @@ class Product:
     layer_looks: bool = False  # a visibility look adds the layer an input acts on (flakes, a coat)
     mouth_views: bool = False  # its encoder may train on open mouths with teeth painted over the region
     tryon: bool = False  # it can be tried on a photo (`vto tryon`, Preview on Photo, batch's sheet)
+    finds_region: bool = True  # Match finds its region in a whole photo; False: a photo is read as framed on it
     asset_library: bool = False  # `vto batch` writes its presets as materials of an asset library
     no_library: str = ""  # why it has none
     presets: str = ""  # its expert presets file; "": vto_core/presets/<name>.json
@@ -149,7 +150,32 @@ HAIR = Product(
                 "in the presets (vto render hair --params preset:NAME@presets.json)"),
     smoke_params=("brightness", "hue", "saturation", "intensity"))
 
-PRODUCTS: dict[str, Product] = {product.name: product for product in (LIPSTICK, HAIR)}
+# One eye's lid: the lid margin (outer corner to inner), up its inner side through MediaPipe's two rings between, the
+# brow's lower edge (inner to outer) and down its outer side (DESIGN.md "Eye shadow"; a simple polygon on the portraits
+# of data/faces). A region is one outer polygon, so each eye is its own: EYELIDS, the product's, is the subject's right
+# eye (the photo's left); the left eye's mirror loop waits for the portraits' try-on.
+RIGHT_EYELID_LOOP = (33, 246, 161, 160, 159, 158, 157, 173, 133, 190, 189, 65, 52, 53, 46, 124, 35, 113, 247)
+LEFT_EYELID_LOOP = (263, 466, 388, 387, 386, 385, 384, 398, 362, 414, 413, 295, 282, 283, 276, 353, 265, 342, 467)
+# The default eye scene frames the lid in a square whose width it spans this share of (scene_eyes.eyelid_mask over
+# sources 0-7 at 64 px: 0.78-0.88, mean 0.82), centred on the lid's box, as the lips are framed.
+EYELID_FRAME_SHARE = 0.82
+EYELIDS = FaceRegion("eyelids", (RIGHT_EYELID_LOOP,), EYELID_FRAME_SHARE)
+LEFT_EYELID = FaceRegion("eyelids", (LEFT_EYELID_LOOP,), EYELID_FRAME_SHARE)
+
+# Eye shadow renders like the lipstick (a material's group over the lid's own shader, Cycles at ~0.15 s a 64 px render),
+# so its fits cost what the lipstick's do; Better and Best wait for their measurement on eyes, and the try-on on
+# portraits (fits in the photo's own scene) for the next issue. Until then a photo is one eye, framed as the default
+# eye scene frames it, read as it is (finds_region=False).
+EYESHADOW = Product(
+    "eyeshadow", "Eye Shadow", eyeshadow_spec(), MATERIAL, "eyelids", EYELIDS,
+    FitPolicy(renders=frozen({"BETTER": (1, 25), "BEST": (2, 100)}),
+              seconds=frozen({"BETTER": (3, 11), "BEST": (12, 18)}),
+              offered=("FAST",), not_offered="Better and Best: not yet measured on eyes", prior_weight=8.0),
+    "EYESHADOW", "'VTO Eye Shadow' group", ".product_eyeshadow", lightings=True, masks=True,
+    look=frozen({"opacity": 1.0}), layer_looks=True, finds_region=False, asset_library=True,
+    smoke_params=("opacity", "red", "green", "blue"))
+
+PRODUCTS: dict[str, Product] = {product.name: product for product in (LIPSTICK, HAIR, EYESHADOW)}
 
 
 def product_names() -> list[str]:

@@ -13,8 +13,10 @@ from .specs import ParamSpec
 VISIBLE_RATIO = 3.0  # the change must stand this far above seed-to-seed noise (4x4 block means)
 # The look each parameter is measured on: the product's look (lipstick fully on); inputs that only act on a layer get
 # that layer where the product has layers (flakes for the sparkle inputs, a glossy coat, gloss at its 75th percentile,
-# for its roughness). Parameters modelled although below the bar are the product's below_bar (`vto spec` names them).
-_CONTEXT = {"sparkle": {"sparkle_density": 0.5, "sparkle_intensity": 0.75}, "gloss_roughness": {"gloss": 2.0}}
+# for its roughness; a pearl shimmer for the shimmer's roughness and tint). Parameters modelled although below the bar
+# are the product's below_bar (`vto spec` names them).
+_CONTEXT = {"sparkle": {"sparkle_density": 0.5, "sparkle_intensity": 0.75}, "gloss_roughness": {"gloss": 2.0},
+            "shimmer_": {"shimmer": 0.75}}
 
 
 def below_bar(renderer: str) -> dict[str, str]:

@@ -1,10 +1,12 @@
-"""A .blend asset library of lipstick products: one marked material per product, with catalog, tags and preview.
+"""A .blend asset library of a material product's presets (lipstick, eye shadow): one marked material per preset,
+with catalog, tags and preview.
 
-Each material is the default lips' material (a Principled "Bare Lips" shader under the VTO Lipstick group) with the
-product's values written on the group's inputs, so dragging it from Blender's Asset Browser onto lips gives the look.
-The file holds only those materials and the node groups they use (`bpy.data.libraries.write`); it is written to a
-temporary name and moved into place, and `blender_assets.cats.txt` beside it names the catalog. Hair has no
-material form (it is a two-pass compositor stage fitted to each photo's own hair), so no library is made for it.
+Each material is the product's material (a Principled bare shader under its VTO group, the product's Blender side
+makes it) with the preset's values written on the group's inputs, so dragging it from Blender's Asset Browser onto
+lips or a lid gives the look. The file holds only those materials and the node groups they use
+(`bpy.data.libraries.write`); it is written to a temporary name and moved into place, and `blender_assets.cats.txt`
+beside it names the catalog. Hair has no material form (it is a two-pass compositor stage fitted to each photo's own
+hair), so no library is made for it.
 """
 
 from __future__ import annotations
@@ -17,11 +19,19 @@ import bpy
 import numpy as np
 
 from vto_core.dataset import write_text_atomic
+from vto_core.products import LIPSTICK, Product
 
-from ..renderers.nodes_lipstick import lipstick_material
+from ..renderers.products import blender_side
 
 CATALOG_FILE = "blender_assets.cats.txt"
-CATALOG_PATH = "Match from photo/Lipstick"
+
+
+def catalog_path(product: Product) -> str:
+    """The catalog of `product`'s presets in the Asset Browser: "Match from photo/Lipstick"."""
+    return f"Match from photo/{product.label}"
+
+
+CATALOG_PATH = catalog_path(LIPSTICK)
 
 
 def catalog_id(path: str = CATALOG_PATH) -> str:
@@ -48,20 +58,21 @@ def set_preview(material: bpy.types.Material, image: np.ndarray) -> None:
 
 
 def write_library(path: Path, products: dict[str, tuple[dict[str, float], np.ndarray, list[str]]],
-                  description: str = "") -> dict[str, str]:
-    """Write the asset library at `path`: product -> (values, preview, extra tags); returns product -> material name.
+                  description: str = "", product: Product = LIPSTICK) -> dict[str, str]:
+    """Write the asset library of `product` (a material product) at `path`: preset -> (values, preview, extra tags);
+    returns preset -> material name.
 
     The materials live in bpy.data only while the file is written; they are removed afterwards.
     """
-    cid = write_catalogs(path.parent)
-    materials = {}
+    cid = write_catalogs(path.parent, catalog_path(product))
+    side, materials = blender_side(product), {}
     try:
         for name, (values, preview, tags) in products.items():
-            material = materials[name] = lipstick_material(name, values)
+            material = materials[name] = side.material(name, values)
             material.asset_mark()
             material.asset_data.catalog_id = cid
             material.asset_data.description = description
-            for tag in ("lipstick", name, *tags):
+            for tag in (product.name, name, *tags):
                 material.asset_data.tags.new(tag[:63], skip_if_exists=True)
             set_preview(material, preview)
         temporary = path.with_name(f".tmp-{os.getpid()}-{path.name}")

@@ -64,12 +64,12 @@ def cmd_dataset(argv: list[str]) -> int:
                         help="hair, default scene: this many consecutive looks share one source render (the stage "
                              "costs ~7 ms a look, a hair render ~1 s)")
     parser.add_argument("--masks", action="store_true",
-                        help="lipstick, default scene: also write each look's lips mask (what a colour imitator "
-                             "reads; hair datasets always hold their hair mask)")
+                        help="lipstick and eye shadow, default scene: also write each look's lips or lid mask (what "
+                             "a colour imitator reads; hair datasets always hold their hair mask)")
     parser.add_argument("--blend", default=None, help="lipstick: a .blend whose active scene uses the VTO Lipstick group")
     parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
-                        help="lipstick, default scene: portrait (a frontal key, neutral light, metered exposure; the "
-                             "default) or wide (any HDRI, any rotation)")
+                        help="lipstick and eye shadow, default scene: portrait (a frontal key, neutral light, metered "
+                             "exposure; the default) or wide (any HDRI, any rotation)")
     parser.add_argument("--vary", default="", help="comma-separated unmodelled inputs to draw uniformly over their "
                                                     "ranges per look (e.g. gloss_roughness), so the encoder learns to "
                                                     "look past them")

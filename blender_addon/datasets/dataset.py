@@ -83,7 +83,8 @@ class DatasetJob:
             raise VtoError(f"--looks-per-source takes a count >= 1, above 1 for the default hair scene only, got "
                            f"{self.looks_per_source}")
         if self.masks and (not product.masks or self.scene is not None):
-            raise VtoError("--masks writes the default lips scene's lips mask (hair datasets always have theirs)")
+            raise VtoError("--masks writes the default lips or eye scene's region mask (hair datasets always have "
+                           "theirs)")
         if self.sensitivity and not self.source_images:
             raise VtoError("--sensitivity renders are for the imitator, which needs the source images: drop --no-source")
         if self.photos is not None:

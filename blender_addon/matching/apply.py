@@ -13,7 +13,8 @@ all feed the same function:
                                 hair (the encoder reads its largest square; Better and Best fit all of it)
     find_region                 find the product's region (default True). Lips, no mask: with the face locator;
                                 hair, no crop or mask: around the largest face (a picture with no face is read whole
-                                as a patch of hair). False takes the image (or crop) as it is (all hair)
+                                as a patch of hair). False takes the image (or crop) as it is (all hair), as
+                                a product that finds no region yet always does (eye shadow: one eye, framed)
     neutral_light               read the photo's light from the skin beside the lips and take it out (default
                                 True; blender_addon.matching.reference)
     model_path                  the encoder; "" = the add-on preferences' path, else the shipped default
@@ -254,7 +255,7 @@ class MatchJob:
 def match_into_material(material_name: str, settings: dict,
                         progress: Callable[[int], None] | None = None) -> dict:
     """Estimate the look of the reference and write it into the inputs of the group `material_name` uses ("VTO
-    Lipstick").
+    Lipstick", "VTO Eye Shadow").
 
     Returns {'values', 'spec', 'model', 'seconds', 'previous'}; raises VtoError (nothing written) on any bad input.
     """

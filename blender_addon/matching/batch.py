@@ -2,10 +2,10 @@
 
 OUT receives: estimates/<image>.json (one per photo, written atomically and reused by a rerun while the photo and the
 model are unchanged), presets.json and presets.csv (the shipped presets' format: `vto render --params
-preset:NAME@OUT/presets.json` takes them), assets.blend with blender_assets.cats.txt (lipstick: one asset material per
-product with a rendered preview; hair has none, see blender_addon.datasets.assets), sheet.png (one row per product: its
-first photo | its preset tried on that photo's lips | a render of its preset) and report.json (products, their photos,
-and every photo skipped with the reason).
+preset:NAME@OUT/presets.json` takes them), assets.blend with blender_assets.cats.txt (a material product, lipstick or
+eye shadow: one asset material per product with a rendered preview; hair has none, see blender_addon.datasets.assets),
+sheet.png (one row per product: its first photo | its preset tried on that photo's lips | a render of its preset) and
+report.json (products, their photos, and every photo skipped with the reason).
 
 The median is per parameter, in raw units; a wrapping parameter (hair hue) takes the circular median: the photo's
 value whose summed distance around the circle to the others is least.
@@ -140,7 +140,7 @@ def no_tryon_line(product) -> str:
 def batch_reference(renderer: str, image: Path):
     """A photo of the folder made ready as the panel makes it (blender_addon.matching.reference.read_reference): lips
     found (lipstick), or the hair (its '<name>_mask' beside it wins; else the hair found around a face, or a patch of
-    hair with no face read whole)."""
+    hair with no face read whole), or, for a product that finds no region yet (eye shadow), the photo as framed."""
     mask = next(iter(sorted(image.parent.glob(image.stem + "_mask.*"))), None)
     return read_reference(renderer, {"image_path": str(image), "mask_path": str(mask) if mask else ""})
 
@@ -323,7 +323,8 @@ def cmd_batch(argv: list[str]) -> int:
         from ..datasets.assets import write_library
 
         library = {name: (presets[name], renders[name], []) for name in presets}
-        report["materials"] = write_library(out / "assets.blend", library, f"Estimated by {Path(args.model).name}")
+        report["materials"] = write_library(out / "assets.blend", library, f"Estimated by {Path(args.model).name}",
+                                            product)
         report["asset_library"] = str(out / "assets.blend")
     else:
         report["asset_library"] = None

@@ -26,8 +26,8 @@ def cmd_render(argv: list[str]) -> int:
     parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES)
     parser.add_argument("--seed", type=int, default=0, help="Cycles seed")
     parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
-                        help="lipstick: light the default scene's source as portraits are lit (a frontal key, "
-                             "neutral, metered; the default) or the wide way (any HDRI, any rotation)")
+                        help="lipstick, eye shadow: light the default scene's source as portraits are lit (a frontal "
+                             "key, neutral, metered; the default) or the wide way (any HDRI, any rotation)")
     parser.add_argument("--out", required=True, help="image file (.png, .exr, .jpg, .tif)")
     args = parser.parse_args(argv)
     values = parse_params(args.params, args.renderer)

@@ -27,7 +27,8 @@ HDRI_WIDTH = 256  # 0.07 s per 64 px render instead of 1.1 s at full size (impor
 ENV_LIGHTS = 4
 SUN_PREFIX = "VTO Env Light "
 LIGHTINGS = ("wide", "portrait")
-ONLY_LIPS = "--lighting chooses the default lips scene's light; the hair scene and a user's scene keep their own"
+ONLY_LIPS = ("--lighting chooses the default lips and eye scenes' light; the hair scene and a user's scene keep "
+             "their own")
 PORTRAIT_HDRIS = ("city.exr", "interior.exr", "studio.exr")  # the neutral maps with a clear key light
 
 

@@ -9,8 +9,7 @@ from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.products import get_spec
 
-from ..compat import uses_nodes
-from .node_utils import node_values
+from .node_utils import material_group_nodes, node_values, scene_group_nodes, set_group_values
 from .nodes_lipstick import GROUP_NAME
 from .cycles import configure_cycles, render_passes, render_user_scene, to_display
 from .scene_lips import applied, apply_source, build_lips_scene, use_lighting
@@ -18,47 +17,18 @@ from .scene_lips import applied, apply_source, build_lips_scene, use_lighting
 
 def material_nodes(material) -> list[bpy.types.Node]:
     """The "VTO Lipstick" group nodes of `material` (none when it is None or has no node tree)."""
-    if material is None or not uses_nodes(material) or material.node_tree is None:
-        return []
-    return [n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeGroup" and n.node_tree is not None
-            and n.node_tree.name.startswith(GROUP_NAME)]
+    return material_group_nodes(material, GROUP_NAME)
 
 
 def makeup_nodes(scene: bpy.types.Scene) -> list[bpy.types.Node]:
     """Every "VTO Lipstick" group node in the materials of `scene`'s objects."""
-    materials = {slot.material for obj in scene.objects for slot in obj.material_slots if slot.material}
-    return [node for material in materials for node in material_nodes(material)]
-
-
-def material_name(node: bpy.types.Node) -> str:
-    """The name of the material whose node tree holds `node`."""
-    return next((m.name for m in bpy.data.materials if m.node_tree == node.id_data), node.id_data.name)
+    return scene_group_nodes(scene, GROUP_NAME)
 
 
 def set_lipstick_values(scene: bpy.types.Scene, values: dict[str, float], fill_defaults: bool = True) -> dict[str, float]:
-    """Set the group inputs on every makeup node of `scene`; returns the values written.
-
-    fill_defaults: the default scene gets all 17 inputs (unnamed ones at their defaults); a user's scene gets only
-    `values`, its other inputs keep the artist's settings. An input driven by a link cannot take a value: that is
-    an error naming it, raised before anything is written.
-    """
-    spec = get_spec("lipstick")
-    full = spec.full_values(values)  # checked and clamped
-    chosen = full if fill_defaults else {name: full[name] for name in values}
-    nodes = makeup_nodes(scene)
-    if not nodes:
-        raise VtoError(f"scene '{scene.name}' has no material using the '{GROUP_NAME}' node group")
-    for node in nodes:
-        for name in chosen:
-            socket = node.inputs[spec.by_name[name].socket]
-            if socket.is_linked:
-                raise VtoError(f"input '{socket.name}' of node '{node.name}' in material '{material_name(node)}' is "
-                               f"driven by a link, so it cannot take the {name} value; unlink it or leave {name} "
-                               "unmodelled")
-    for node in nodes:
-        for name, value in chosen.items():
-            node.inputs[spec.by_name[name].socket].default_value = value
-    return chosen
+    """Set the group inputs on every makeup node of `scene` (node_utils.set_group_values: the default scene gets all
+    17, a user's scene only `values`); returns the values written."""
+    return set_group_values(scene, get_spec("lipstick"), GROUP_NAME, values, fill_defaults)
 
 
 def scene_values(scene: bpy.types.Scene) -> dict[str, float]:
@@ -67,8 +37,6 @@ def scene_values(scene: bpy.types.Scene) -> dict[str, float]:
     if not nodes:
         raise VtoError(f"scene '{scene.name}' has no material using the '{GROUP_NAME}' node group")
     return node_values(nodes[0], get_spec("lipstick"))
-
-
 
 
 def linked_inputs(scene: bpy.types.Scene) -> list[str]:

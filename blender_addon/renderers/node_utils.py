@@ -1,4 +1,5 @@
-"""Small helpers for building node groups: nodes, links, math, and group interfaces from a spec."""
+"""Small helpers for node groups: building them (nodes, links, math, interfaces from a spec), finding a group's nodes
+in materials, setting their inputs, and a material that layers a group over a bare shader."""
 
 from __future__ import annotations
 
@@ -6,9 +7,10 @@ import bpy
 
 from collections.abc import Iterable
 
+from vto_core.errors import VtoError
 from vto_core.specs import ParamSpec, RendererSpec
 
-from ..compat import compositor_idname
+from ..compat import compositor_idname, enable_nodes, uses_nodes
 
 # Bumped whenever a builder changes what it builds, so older groups in saved files are rebuilt.
 BUILDER_VERSION = 3
@@ -99,3 +101,74 @@ def node_values(node, spec: RendererSpec) -> dict[str, float]:
     """A group node's inputs for `spec`'s parameters as the artist set them (linked ones left out)."""
     inputs = node.inputs
     return {p.name: float(inputs[p.socket].default_value) for p in spec.params if not inputs[p.socket].is_linked}
+
+
+def material_group_nodes(material, group_name: str) -> list[bpy.types.Node]:
+    """The nodes of `material` that use the group `group_name` (or a numbered copy); none when it has no node tree."""
+    if material is None or not uses_nodes(material) or material.node_tree is None:
+        return []
+    return [n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeGroup" and n.node_tree is not None
+            and n.node_tree.name.startswith(group_name)]
+
+
+def scene_group_nodes(scene: bpy.types.Scene, group_name: str) -> list[bpy.types.Node]:
+    """Every node using the group `group_name` in the materials of `scene`'s objects."""
+    materials = {slot.material for obj in scene.objects for slot in obj.material_slots if slot.material}
+    return [node for material in materials for node in material_group_nodes(material, group_name)]
+
+
+def material_name(node: bpy.types.Node) -> str:
+    """The name of the material whose node tree holds `node`."""
+    return next((m.name for m in bpy.data.materials if m.node_tree == node.id_data), node.id_data.name)
+
+
+def set_group_values(scene: bpy.types.Scene, spec: RendererSpec, group_name: str, values: dict[str, float],
+                     fill_defaults: bool = True) -> dict[str, float]:
+    """Set `spec`'s inputs on every node of `scene` using the group `group_name`; returns the values written.
+
+    fill_defaults: a default scene gets every input (unnamed ones at their defaults); a user's scene gets only
+    `values`, its other inputs keep the artist's settings. An input driven by a link cannot take a value: that is
+    an error naming it, raised before anything is written.
+    """
+    full = spec.full_values(values)  # checked and clamped
+    chosen = full if fill_defaults else {name: full[name] for name in values}
+    nodes = scene_group_nodes(scene, group_name)
+    if not nodes:
+        raise VtoError(f"scene '{scene.name}' has no material using the '{group_name}' node group")
+    for node in nodes:
+        for name in chosen:
+            socket = node.inputs[spec.by_name[name].socket]
+            if socket.is_linked:
+                raise VtoError(f"input '{socket.name}' of node '{node.name}' in material '{material_name(node)}' is "
+                               f"driven by a link, so it cannot take the {name} value; unlink it or leave {name} "
+                               "unmodelled")
+    for node in nodes:
+        for name, value in chosen.items():
+            node.inputs[spec.by_name[name].socket].default_value = value
+    return chosen
+
+
+def layer_material(name: str, group: bpy.types.NodeTree, spec: RendererSpec, bare: str, bare_colour: tuple,
+                   bare_roughness: float, values: dict[str, float] | None = None) -> bpy.types.Material:
+    """A new material: a Principled BSDF `bare` (the surface's own shader, into the group's first input) -> a node of
+    `group` named as it (inputs set from `values`, checked against `spec`; the others at the group's defaults) ->
+    Material Output."""
+    material = bpy.data.materials.new(name)
+    enable_nodes(material)
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    nodes.clear()
+    bare_node = nodes.new("ShaderNodeBsdfPrincipled")
+    bare_node.name = bare_node.label = bare
+    bare_node.inputs["Base Color"].default_value = bare_colour
+    bare_node.inputs["Roughness"].default_value = bare_roughness
+    layer = nodes.new("ShaderNodeGroup")
+    layer.name = layer.label = group.name
+    layer.node_tree = group
+    if values:
+        for key, value in spec.check_values(values).items():
+            layer.inputs[spec.by_name[key].socket].default_value = value
+    output = nodes.new("ShaderNodeOutputMaterial")
+    links.new(bare_node.outputs[0], layer.inputs[0])
+    links.new(layer.outputs[0], output.inputs["Surface"])
+    bare_node.location, layer.location, output.location = (-300, 0), (0, 0), (250, 0)
+    return material

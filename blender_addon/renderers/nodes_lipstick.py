@@ -6,8 +6,7 @@ import bpy
 
 from vto_core.products import get_spec
 
-from ..compat import enable_nodes
-from .node_utils import Builder, add_spec_inputs, get_or_create_group
+from .node_utils import Builder, add_spec_inputs, get_or_create_group, layer_material
 
 GROUP_NAME = "VTO Lipstick"
 SRGB_GROUP_NAME = "VTO sRGB 255 to Linear"
@@ -182,23 +181,5 @@ def lipstick_group() -> bpy.types.NodeTree:
 def lipstick_material(name: str, values: dict[str, float] | None = None) -> bpy.types.Material:
     """A new material: a Principled BSDF "Bare Lips" -> the "VTO Lipstick" group (inputs set from `values`, checked
     against the spec; the others at the group's defaults) -> Material Output."""
-    material = bpy.data.materials.new(name)
-    enable_nodes(material)
-    nodes, links = material.node_tree.nodes, material.node_tree.links
-    nodes.clear()
-    bare = nodes.new("ShaderNodeBsdfPrincipled")
-    bare.name = bare.label = "Bare Lips"
-    bare.inputs["Base Color"].default_value = (0.45, 0.16, 0.14, 1.0)
-    bare.inputs["Roughness"].default_value = 0.45
-    makeup = nodes.new("ShaderNodeGroup")
-    makeup.name = makeup.label = GROUP_NAME
-    makeup.node_tree = lipstick_group()
-    if values:
-        spec = get_spec("lipstick")
-        for key, value in spec.check_values(values).items():
-            makeup.inputs[spec.by_name[key].socket].default_value = value
-    output = nodes.new("ShaderNodeOutputMaterial")
-    links.new(bare.outputs[0], makeup.inputs["Lips"])
-    links.new(makeup.outputs[0], output.inputs["Surface"])
-    bare.location, makeup.location, output.location = (-300, 0), (0, 0), (250, 0)
-    return material
+    return layer_material(name, lipstick_group(), get_spec("lipstick"), "Bare Lips", (0.45, 0.16, 0.14, 1.0), 0.45,
+                          values)

@@ -96,14 +96,17 @@ class LipstickRenderer(ProductRenderer):
 
         return material_nodes(material)
 
+    def material(self, name, values=None):
+        from .nodes_lipstick import lipstick_material
+
+        return lipstick_material(name, values)
+
     def add_group(self, obj):
         """A new "VTO Lipstick" material on `obj` (a mesh): a Principled BSDF (the bare lips) -> the lipstick group ->
         Material Output, appended to its slots and made active. Returns the material."""
-        from .nodes_lipstick import lipstick_material
-
         if obj is None or obj.type != "MESH":
             raise VtoError("select a mesh object to add the lipstick material to")
-        material = lipstick_material("VTO Lipstick")
+        material = self.material("VTO Lipstick")
         obj.data.materials.append(material)
         obj.active_material_index = len(obj.material_slots) - 1
         return material

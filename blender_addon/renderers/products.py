@@ -73,6 +73,11 @@ class ProductRenderer:
         """The product's group nodes in `target` (a material, or a scene's compositor); [] when it has none."""
         raise NotImplementedError
 
+    def material(self, name: str, values: dict[str, float] | None = None):
+        """A new material `name`: a bare shader -> the product's group (`values` on its inputs) -> the output; material
+        products only (the asset library's materials, add_group's)."""
+        raise VtoError(f"{self.product.name} is not a material's node group")
+
     def add_group(self, owner):
         """Add the product's group where it lives: a new material on mesh `owner` (returned), or the stage's groups in
         scene `owner`'s compositor, wired (returned)."""

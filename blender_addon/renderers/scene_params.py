@@ -12,8 +12,8 @@ from vto_core.products import get_spec
 from vto_core.visibility import VISIBLE_RATIO, parameter_visibility, quartile_values
 
 from ..blendfile import open_blend
-from .lipstick import (linked_inputs, makeup_nodes, material_name, render_lipstick, scene_values,
-                       set_lipstick_values)
+from .lipstick import linked_inputs, makeup_nodes, render_lipstick, scene_values, set_lipstick_values
+from .node_utils import material_name
 
 
 def user_scene(material: str | None = None) -> bpy.types.Scene:

@@ -10,7 +10,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, StringPro
 
 from vto_core.errors import VtoError, failure_line
 
-from vto_core.products import PRODUCTS, product_of_target
+from vto_core.products import LIPSTICK, PRODUCTS, get_product, product_of_target
 
 from ..matching import apply
 from ..renderers.products import blender_side
@@ -21,10 +21,59 @@ from .properties import QUALITY_ITEMS, remember, settings_dict
 TICK_SECONDS = 0.05  # refinement work per timer tick, at least one render: the UI answers between ticks
 
 
+_MATERIAL_ITEMS: list = []  # Blender keeps no copy of a callback's enum strings: they live here
+
+
+def material_product_items(self, context) -> list:
+    """The products whose renderer is a material's node group (vto_core.products), one item each, the first the
+    default."""
+    items = [(p.name, p.label, f"A new material with the {p.group_text} over a bare shader")
+             for p in PRODUCTS.values() if p.is_material]
+    if items != _MATERIAL_ITEMS:
+        _MATERIAL_ITEMS[:] = items
+    return _MATERIAL_ITEMS
+
+
+def add_material(operator, context, product) -> set:
+    """Add `product`'s material to the operator's object (or the active one) and report it in one line."""
+    obj = bpy.data.objects.get(operator.object_name) if operator.object_name else context.object
+    try:
+        material = blender_side(product).add_group(obj)
+    except VtoError as exc:
+        operator.report({"ERROR"}, str(exc))
+        return {"CANCELLED"}
+    operator.report({"INFO"}, f"added material '{material.name}' to '{obj.name}'")
+    return {"FINISHED"}
+
+
+class VTO_OT_add_material(bpy.types.Operator):
+    """Add a new material to the active mesh: the chosen product's VTO node group over a bare shader"""
+
+    bl_idname = "vto.add_material"
+    bl_label = "Add VTO Material"
+    bl_options = {"REGISTER", "UNDO"}
+
+    product: EnumProperty(name="Product", items=material_product_items,
+                          description="The product whose node group the new material holds")
+    object_name: StringProperty(name="Object", default="", description="Mesh object (default: the active object)")
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and context.object.type == "MESH"
+
+    @classmethod
+    def description(cls, context, properties):
+        label = get_product(properties.product).label if properties.product else "a product's"
+        return f"Add a \"VTO {label}\" material to the active mesh: its node group over a bare shader"
+
+    def execute(self, context):
+        return add_material(self, context, get_product(self.product))
+
+
 class VTO_OT_add_lipstick_material(bpy.types.Operator):
     """Add a "VTO Lipstick" material to the active mesh: the lipstick node group over a bare-lips shader"""
 
-    bl_idname = "vto.add_lipstick_material"
+    bl_idname = "vto.add_lipstick_material"  # vto.add_material(product="lipstick") under its name from before
     bl_label = "Add VTO Lipstick Material"
     bl_options = {"REGISTER", "UNDO"}
 
@@ -32,17 +81,10 @@ class VTO_OT_add_lipstick_material(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return context.object is not None and context.object.type == "MESH"
+        return VTO_OT_add_material.poll(context)
 
     def execute(self, context):
-        obj = bpy.data.objects.get(self.object_name) if self.object_name else context.object
-        try:
-            material = blender_side("lipstick").add_group(obj)
-        except VtoError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"added material '{material.name}' to '{obj.name}'")
-        return {"FINISHED"}
+        return add_material(self, context, LIPSTICK)
 
 
 class VTO_OT_add_hair_compositor(bpy.types.Operator):
@@ -91,7 +133,8 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
     model_path: StringProperty(name="Model", subtype="FILE_PATH", description="Encoder (.onnx); default: the panel's")
     quality: EnumProperty(name="Quality", items=QUALITY_ITEMS, default="FAST")
     find_region: BoolProperty(name="Find Region", default=True,
-                              description="Find the lips (lipstick) or the hair (hair) in the photo")
+                              description="Find the product's region in the photo (the lips, the hair); a product "
+                                          "that finds none yet (eye shadow) reads the photo as framed on it")
     # The older names of find_region, one a product, still taken from scripts
     find_lips: BoolProperty(name="Find Lips", default=True, options={"HIDDEN"}, description="find_region's older name")
     find_hair: BoolProperty(name="Find Hair", default=True, options={"HIDDEN"}, description="find_region's older name")
@@ -281,11 +324,20 @@ class VTO_OT_preview_on_photo(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (VTO_OT_add_lipstick_material, VTO_OT_add_hair_compositor, VTO_OT_match_from_photo, VTO_OT_preview_on_photo)
+CLASSES = (VTO_OT_add_material, VTO_OT_add_lipstick_material, VTO_OT_add_hair_compositor, VTO_OT_match_from_photo,
+           VTO_OT_preview_on_photo)
+
+
+def add_material_buttons(layout) -> None:
+    """One "Add VTO <Product> Material" button a material product (vto.add_material)."""
+    for product in PRODUCTS.values():
+        if product.is_material:
+            layout.operator(VTO_OT_add_material.bl_idname, text=f"Add VTO {product.label} Material",
+                            icon="MATERIAL").product = product.name
 
 
 def _material_menu(self, context):
-    self.layout.operator(VTO_OT_add_lipstick_material.bl_idname, icon="MATERIAL")
+    add_material_buttons(self.layout)
 
 
 def register() -> None:

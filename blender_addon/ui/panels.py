@@ -1,5 +1,5 @@
-"""The "Match from photo" panels: the top of Material Properties and the Shader Editor's sidebar (lipstick), the
-Compositor's sidebar (hair)."""
+"""The "Match from photo" panels: the top of Material Properties and the Shader Editor's sidebar (a material's
+product: lipstick, eye shadow), the Compositor's sidebar (hair)."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from vto_core.products import Product, get_spec
 
 from ..matching import apply
 from . import preview, thumbnail, warmup
-from .operators import (VTO_OT_add_hair_compositor, VTO_OT_add_lipstick_material, VTO_OT_match_from_photo,
-                        VTO_OT_preview_on_photo)
+from .operators import (VTO_OT_add_hair_compositor, VTO_OT_match_from_photo, VTO_OT_preview_on_photo,
+                        add_material_buttons)
 from .preferences import preference_model
 
 THUMBNAIL_SCALE = 6.0  # the reference's thumbnail: 6 icon rows high
@@ -45,6 +45,9 @@ def draw_reference(column, props, preview_name: str, product: Product) -> None:
         for index, name in enumerate(("X", "Y", "Width", "Height")):
             box.prop(props, "crop", index=index, text=name)
     column.prop(props, "mask_path", text="Mask")
+    if not product.finds_region:  # its region is not found in a whole photo yet: the photo is framed on it
+        column.label(text=f"The photo is read as framed on the {product.region}", icon="INFO")
+        return
     row = column.row()
     row.active = not props.mask_path and not (product.face_region is None and props.use_crop)  # these say where it is
     row.prop(props, "find_region", text=f"Find {product.region.title()}")
@@ -161,14 +164,14 @@ class MaterialMatch:
 
 
 class VTO_PT_match_material(MaterialMatch, bpy.types.Panel):
-    """Match from photo for a material using the "VTO Lipstick" group (EEVEE, Workbench)"""
+    """Match from photo for a material using a VTO material group (EEVEE, Workbench)"""
 
     bl_idname = "VTO_PT_match_material"
     bl_parent_id = "EEVEE_MATERIAL_PT_context_material"
 
 
 class VTO_PT_match_material_cycles(MaterialMatch, bpy.types.Panel):
-    """Match from photo for a material using the "VTO Lipstick" group (Cycles)"""
+    """Match from photo for a material using a VTO material group (Cycles)"""
 
     bl_idname = "VTO_PT_match_material_cycles"
     bl_parent_id = "CYCLES_PT_context_material"
@@ -219,7 +222,7 @@ class VTO_PT_match_hair(SidebarPanel, bpy.types.Panel):
 
 
 class VTO_PT_add_lipstick(bpy.types.Panel):
-    """A starting point: add a lipstick material to the active mesh when its material has no VTO group"""
+    """A starting point: add a VTO material (lipstick, eye shadow) to the active mesh when its material has none"""
 
     bl_label = "Match from photo"
     bl_idname = "VTO_PT_add_lipstick"
@@ -235,8 +238,8 @@ class VTO_PT_add_lipstick(bpy.types.Panel):
                 and apply.material_product(getattr(context, "material", None)) is None)
 
     def draw(self, context):
-        self.layout.label(text="This material does not use the VTO Lipstick group")
-        self.layout.operator(VTO_OT_add_lipstick_material.bl_idname, icon="MATERIAL")
+        self.layout.label(text="This material uses no VTO group")
+        add_material_buttons(self.layout)
 
 
 CLASSES = (VTO_PT_match_material, VTO_PT_match_material_cycles, VTO_PT_match_shader, VTO_PT_match_hair,

@@ -37,8 +37,8 @@ def source_key(props, product) -> tuple:
         source = ("datablock", image.name if image else "", image.is_dirty if image else False)
     else:
         source = ("file",) + stamp(props.image_path)
-    # a face-mesh region is found inside the crop; the hair is found only in the whole photo
-    finding = (find_region(props) and not props.mask_path
+    # a face-mesh region is found inside the crop; the hair is found only in the whole photo; some not yet at all
+    finding = (find_region(props) and product.finds_region and not props.mask_path
                and not (product.face_region is None and props.use_crop))
     return source, tuple(round(v, 4) for v in props.crop) if props.use_crop else None, stamp(props.mask_path), finding
 

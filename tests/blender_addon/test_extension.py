@@ -29,6 +29,9 @@ ONNXRUNTIME_313 = "1.20.0"  # cp313: Blender 5.1+, the first onnxruntime with cp
 PYTHON = f"python{sys.version_info[0]}.{sys.version_info[1]}"  # bpy 4.5 and 5.0 run 3.11, bpy 5.1+ 3.13
 # Blender's own Python ships these; the venv's other packages (its onnxruntime among them) stay out of sight.
 # bpy's own requirements too: Blender 5.2's extensions add-on imports cattrs when it registers.
+# Each declared product's default encoder and model card ship in the zip (scripts/build_extension.py shipped_models).
+SHIPPED_MODELS = [f"{name}_encoder{suffix}" for name in ("lipstick", "hair", "eyeshadow")
+                  for suffix in (".onnx", ".md")]
 BLENDER_PYTHON_MODULES = ["bpy", "numpy", "numpy.libs", "OpenImageIO", "attr", "attrs", "cattrs", "requests",
                           "urllib3", "certifi", "idna", "charset_normalizer", "zstandard", "typing_extensions.py"]
 
@@ -64,6 +67,20 @@ material = bpy.data.objects["Lips"].active_material
 report["match_op"] = sorted(bpy.ops.vto.match_from_photo(material=material.name, image_path=lips_png))
 (group,) = [n for n in material.node_tree.nodes if getattr(n, "node_tree", None) and n.node_tree.name == "VTO Lipstick"]
 report["written"] = {s.name: s.default_value for s in group.inputs if s.type == "VALUE"}
+# Eye shadow: a render of one eye, a new material from the generic button, Match with the shipped eye-shadow model.
+eye_png = params.replace(".json", "_eye.png")
+report["render_eye"] = addon.run_cli(["render", "eyeshadow", "--params", "preset:Plum", "--res", "32", "--samples",
+                                      "2", "--out", eye_png])
+lid = bpy.data.meshes.new("Lid")
+lid.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0)], [], [(0, 1, 2)])
+bpy.context.scene.collection.objects.link(bpy.data.objects.new("Lid", lid))
+bpy.context.view_layer.objects.active = bpy.data.objects["Lid"]
+report["add_eyeshadow"] = sorted(bpy.ops.vto.add_material(product="eyeshadow"))
+shade = bpy.data.objects["Lid"].active_material
+report["match_eyeshadow"] = sorted(bpy.ops.vto.match_from_photo(target="EYESHADOW", material=shade.name,
+                                                                image_path=eye_png))
+(shadow,) = [n for n in shade.node_tree.nodes if getattr(n, "node_tree", None) and n.node_tree.name == "VTO Eye Shadow"]
+report["written_eyeshadow"] = {s.name: s.default_value for s in shadow.inputs if s.type == "VALUE"}
 compat = __import__("bl_ext.user_default.vto_match.compat", fromlist=["compositor_tree"])
 report["hair_groups"] = sorted(n.node_tree.name for n in compat.compositor_tree(bpy.context.scene).nodes
                                if getattr(n, "node_tree", None))
@@ -98,6 +115,33 @@ def load_blender_ext():
     sys.modules.setdefault("blender_ext", module)
     spec.loader.exec_module(module)
     return module
+
+
+def load_build_script():
+    """scripts/build_extension.py as a module."""
+    spec = importlib.util.spec_from_file_location("build_extension", ROOT / "scripts" / "build_extension.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_build_ships_each_products_encoder_and_card_or_stops_in_one_line(tmp_path):
+    """The build's list of models is one encoder and one model card a declared product, the eye shadow's among them;
+    a folder that lacks one stops the build with one line naming it."""
+    from vto_core.products import PRODUCTS
+
+    build = load_build_script()
+    assert sorted(SHIPPED_MODELS) == sorted(f"{p.name}_encoder{s}" for p in PRODUCTS.values() for s in (".onnx", ".md"))
+    addon = tmp_path / "vto_match"
+    (addon / "models").mkdir(parents=True)
+    for name in SHIPPED_MODELS:
+        (addon / "models" / name).write_bytes(b"model")
+    assert build.shipped_models(addon) == SHIPPED_MODELS
+    (addon / "models" / "eyeshadow_encoder.onnx").unlink()
+    with pytest.raises(SystemExit) as stopped:
+        build.shipped_models(addon)
+    assert str(stopped.value) == ("build_extension: vto_match/models lacks eyeshadow_encoder.onnx: each product ships "
+                                  "its encoder and model card")
 
 
 def test_every_platform_zip_carries_both_pythons_onnxruntime(tmp_path):
@@ -174,7 +218,7 @@ def test_extension_builds_installs_and_runs_the_cli(tmp_path):
     for wheel in wheels:
         assert f'"./{wheel}"' in manifest, f"{wheel} is not listed in the built manifest"
     assert not [n for n in names if "_vendor" in n or "__pycache__" in n or n.endswith(".pyc") or "tests/" in n]
-    for model in ("lipstick_encoder.onnx", "lipstick_encoder.md", "hair_encoder.onnx", "hair_encoder.md"):
+    for model in SHIPPED_MODELS:
         assert f"models/{model}" in names
     assert "vto_core/" not in {n.split("/")[0] + "/" for n in names}, "vto_core must come as a wheel, not a folder"
 
@@ -205,7 +249,7 @@ def test_extension_builds_installs_and_runs_the_cli(tmp_path):
     assert report["commands"] == ["bl_ext.user_default.vto_match.matching.commands",
                                   "bl_ext.user_default.vto_match.matching.match",
                                   "bl_ext.user_default.vto_match.renderers.commands"]
-    for model in ("lipstick_encoder.onnx", "lipstick_encoder.md", "hair_encoder.onnx", "hair_encoder.md"):
+    for model in SHIPPED_MODELS:
         assert (installed / "models" / model).is_file()
     assert (site / "vto_core" / "presets" / "lipstick.json").is_file()
 
@@ -240,6 +284,16 @@ def test_extension_builds_installs_and_runs_the_cli(tmp_path):
     for name in spec.modelled:
         written = report["written"][spec.by_name[name].socket]
         assert written == pytest.approx(expected[name], rel=1e-4, abs=1e-4), name
+    # eye shadow: a photo of one eye read as framed, the shipped eye-shadow model's estimate in the group
+    assert report["render_eye"] == 0 and report["add_eyeshadow"] == ["FINISHED"] == report["match_eyeshadow"]
+    from vto_core.photo.photo_reader import load_reference
+
+    session = EncoderSession(str(installed / "models" / "eyeshadow_encoder.onnx"))
+    estimate = session.predict(load_reference(str(tmp_path / "hair_eye.png")))[0]
+    eyeshadow = get_spec("eyeshadow")
+    for name in session.spec.modelled:
+        written = report["written_eyeshadow"][eyeshadow.by_name[name].socket]
+        assert written == pytest.approx(estimate[name], rel=1e-4, abs=1e-4), name
     assert report["batch"] == 0
     batch = json.loads((tmp_path / "hair_photos_out" / "report.json").read_text())
     assert [p["name"] for p in json.loads((tmp_path / "hair_photos_out" / "presets.json").read_text())["presets"]] \

@@ -16,9 +16,6 @@ import blender_addon  # noqa: E402
 from blender_addon.matching import apply  # noqa: E402
 from blender_addon.renderers.product_lipstick import LipstickRenderer  # noqa: E402
 from blender_addon.renderers.products import blender_side  # noqa: E402
-from training.config import EncoderConfig, resolve_config  # noqa: E402
-from training.export import export_encoder  # noqa: E402
-from training.train_encoder import train_encoder  # noqa: E402
 from vto_core import cli  # noqa: E402
 from vto_core.dataset import DatasetReader  # noqa: E402
 from vto_core.imageio import write_image  # noqa: E402
@@ -55,7 +52,7 @@ def toy(tmp_path_factory):
     del PRODUCTS["toy"]
 
 
-def test_a_toy_product_renders_trains_matches_and_is_a_target(toy):
+def test_a_toy_product_renders_trains_matches_and_is_a_target(toy, tiny_trained_encoder):
     product, folder = toy
     # a dataset sample, through the `vto dataset` command
     data = folder / "data"
@@ -64,11 +61,7 @@ def test_a_toy_product_renders_trains_matches_and_is_a_target(toy):
     reader = DatasetReader(str(data))
     assert reader.spec.renderer == "toy" and reader.spec.modelled == NAMES and len(reader) == 4
     # a tiny encoder, trained on it and exported
-    run = train_encoder(str(data), None, str(folder / "encoder"), resolve_config(EncoderConfig, None, [
-        "perceptual=ssim_l1", "batch_size=4", "width=8", "n_layers=2", "pool_size=1", "loss=graphics", "steps=4",
-        "log_every=2"]))
-    model = folder / "encoder.onnx"
-    export_encoder(str(run.path), str(model))
+    model = tiny_trained_encoder(data, folder / "encoder")
     # Match Fast from a portrait, written into a material's group
     import skimage.data
 

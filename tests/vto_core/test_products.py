@@ -1,5 +1,6 @@
 """Products declared once (vto_core.products): each declaration is whole and consistent, an unknown name is one line
-from every command, and no module outside the declarations compares a product's name to a string."""
+from every command, no module outside the declarations compares a product's name to a string, and the eye shadow's
+lid region and presets are what a palette holds."""
 
 import ast
 import contextlib
@@ -11,8 +12,8 @@ import pytest
 from vto_core import cli
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets
-from vto_core.products import (COMPOSITOR, HAIR, LIPSTICK, MATERIAL, PRODUCTS, QUALITIES, get_product, get_spec,
-                               product_names, product_of_target)
+from vto_core.products import (COMPOSITOR, EYELIDS, EYESHADOW, HAIR, LEFT_EYELID, LIPSTICK, MATERIAL, PRODUCTS,
+                               QUALITIES, get_product, get_spec, product_names, product_of_target)
 
 ROOT = Path(__file__).resolve().parents[2]
 # Where a product's name may stand beside ==: the declarations themselves.
@@ -45,7 +46,7 @@ def test_the_two_products_differ_where_they_really_differ():
     assert HAIR.written(get_spec("hair", "hue,intensity")) == ["hue", "intensity", "blend"]
     assert (LIPSTICK.fit.polish_passes, HAIR.fit.polish_passes) == (0, 3)
     assert LIPSTICK.fits_in_photo_scene and LIPSTICK.tryon and LIPSTICK.mouth_views and not HAIR.mouth_views
-    assert [p.target_item[0] for p in PRODUCTS.values()] == ["MATERIAL", "HAIR"]  # the operator's ids, as before
+    assert [p.target_item[0] for p in PRODUCTS.values()] == ["MATERIAL", "HAIR", "EYESHADOW"]  # ids kept as before
 
 
 def test_a_declaration_cannot_be_changed_by_the_code_that_reads_it():
@@ -56,11 +57,11 @@ def test_a_declaration_cannot_be_changed_by_the_code_that_reads_it():
 
 
 def test_an_unknown_product_is_one_line_listing_the_products():
-    with pytest.raises(VtoError, match=r"^unknown product 'nail'; choose from lipstick, hair$"):
+    with pytest.raises(VtoError, match=r"^unknown product 'nail'; choose from lipstick, hair, eyeshadow$"):
         get_product("nail")
-    with pytest.raises(VtoError, match="unknown renderer 'nail'; choose from lipstick, hair"):
+    with pytest.raises(VtoError, match="unknown renderer 'nail'; choose from lipstick, hair, eyeshadow"):
         get_spec("nail")
-    assert product_names() == ["lipstick", "hair"]
+    assert product_names() == ["lipstick", "hair", "eyeshadow"]
 
 
 @pytest.mark.parametrize("argv", [["spec", "nail"], ["sample", "nail"], ["presets", "nail"]])
@@ -90,3 +91,43 @@ def test_the_static_check_sees_a_comparison():
     assert name_comparisons('if renderer == "hair":\n    pass\n') == [1]
     assert name_comparisons('x = "lipstick" != y\n') == [1]
     assert name_comparisons('if product.face_region is None:\n    pass\n') == []
+
+
+def test_eye_shadow_is_a_material_on_one_eyes_lid():
+    assert EYESHADOW.is_material and EYESHADOW.face_region is EYELIDS and EYESHADOW.region == "eyelids"
+    assert not (EYESHADOW.tryon or EYESHADOW.fits_in_photo_scene or EYESHADOW.photo_datasets)  # photos: next issue
+    assert EYESHADOW.fit.offered == ("FAST",) and EYESHADOW.photo_values({"red": 9.0}) == {"red": 9.0}
+    assert not EYESHADOW.finds_region and LIPSTICK.finds_region and HAIR.finds_region  # a photo of one eye, framed
+    assert EYESHADOW.asset_library and not EYESHADOW.no_library  # its presets are materials, as the lipstick's
+    assert 0.5 < EYELIDS.frame_share < 1.0 and EYELIDS.frame_share == LEFT_EYELID.frame_share
+    right, left = EYELIDS.loops[0], LEFT_EYELID.loops[0]
+    assert len(EYELIDS.loops) == 1 and len(right) == len(left) == len(set(right)) == 19
+    assert right[:9] == (33, 246, 161, 160, 159, 158, 157, 173, 133)  # the lid margin, outer corner to inner
+    assert left[:9] == (263, 466, 388, 387, 386, 385, 384, 398, 362)
+    assert {65, 52, 53, 46, 124, 35} <= set(right) and {295, 282, 283, 276, 353, 265} <= set(left)  # the brow's edge
+
+
+EYESHADOW_PRESETS = load_presets("eyeshadow")
+
+
+def test_eye_shadow_presets_are_real_shades_in_range_with_every_finish():
+    import json
+
+    from vto_core.presets import PRESET_DIR
+
+    rows = json.loads((PRESET_DIR / "eyeshadow.json").read_text())["presets"]
+    assert len(rows) >= 24 and len({row["name"] for row in rows}) == len(rows)
+    assert {row["finish"] for row in rows} == {"matte", "satin", "shimmer", "metallic", "glitter"}
+    for name, values in EYESHADOW_PRESETS.items():
+        assert EYESHADOW.spec.check_values(values), name  # every value named, in range
+        assert not set(values) & {"height", "softness", "shift"}, f"{name}: placement is the artist's, not a shade's"
+    dark = [n for n, v in EYESHADOW_PRESETS.items() if max(v["red"], v["green"], v["blue"]) < 60]
+    assert len(dark) >= 2  # the smoky blacks: the paper's user study failed on very dark shades
+    for row in rows:
+        values = row["params"]
+        if row["finish"] == "matte":
+            assert values["shimmer"] == values["metallic"] == values["sparkle_density"] == 0.0, row["name"]
+        if row["finish"] == "glitter":
+            assert values["sparkle_density"] >= 0.5, row["name"]
+        if row["finish"] == "metallic":
+            assert values["metallic"] >= 0.7, row["name"]

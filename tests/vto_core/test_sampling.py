@@ -37,7 +37,7 @@ def test_sample_i_does_not_depend_on_what_was_drawn_before():
 
 
 def test_samples_stay_in_range_and_cover_it():
-    for renderer in ("lipstick", "hair"):
+    for renderer in ("lipstick", "hair", "eyeshadow"):
         sampler = make(renderer, ratio=0.5)
         unit = np.stack([sampler.sample_unit(i) for i in range(600)])
         assert unit.min() >= 0.0 and unit.max() <= 1.0

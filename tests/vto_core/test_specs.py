@@ -32,6 +32,21 @@ def test_builtin_sizes_match_the_paper():
         "brightness", "contrast", "exposure", "gamma", "hue", "saturation"]
 
 
+def test_eye_shadow_models_the_product_and_leaves_its_placement_to_the_artist():
+    spec = get_spec("eyeshadow")
+    assert len(spec.params) == 17 and len({p.socket for p in spec.params}) == 17
+    assert spec.modelled == ("opacity", "red", "green", "blue", "shimmer", "shimmer_roughness", "shimmer_tint",
+                             "sparkle_density", "metallic")
+    left_out = spec.left_out()
+    assert {name for name, why in left_out.items() if "the artist sets it" in why} == {"height", "softness", "shift"}
+    assert {name for name, why in left_out.items() if "under the visibility bar" in why} == {
+        "sparkle_size", "sparkle_intensity", "sparkle_red", "sparkle_green", "sparkle_blue"}
+    assert {p.group for p in spec.params} == {"product", "placement"}
+    assert all(p.description and p.bounded for p in spec.params)
+    assert spec.by_name["shift"].low == -1.0 and spec.by_name["shift"].default == 0.0
+    assert [p.socket for p in spec.params][:4] == ["Opacity", "Red", "Green", "Blue"]  # as the lipstick's
+
+
 def test_select_keeps_spec_order_whatever_the_request_order():
     spec = get_spec("lipstick", "gloss,red,opacity")
     assert spec.modelled == ("opacity", "red", "gloss")

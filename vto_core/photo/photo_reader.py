@@ -339,7 +339,9 @@ class PhotoReader:
     def region_reference(self, product, whole: np.ndarray, crop=None, mask: np.ndarray | None = None, find: bool = True,
                          neutral_light: bool = True) -> Reference:
         """`whole` (H, W, 3) made ready for `product`: its face-mesh region (the lips) found and framed, or, for a
-        product with no face-mesh region, the hair found and a square of it cut; one-line errors."""
+        product with no face-mesh region, the hair found and a square of it cut; one-line errors. A product that does
+        not find its region yet (finds_region False: the eyelids) takes the photo (or crop) as framed on it."""
+        find = find and product.finds_region
         if product.face_region is None:
             return self.hair_reference(whole, crop, mask, neutral_light, find)
         return self.face_region_reference(product, whole, crop, mask, find, neutral_light)

@@ -1,5 +1,5 @@
 """Match from photo in Blender: the starting-point operators, the match operator (values, undo, bad input), the
-panels' polls, and `vto match --material NAME --save` on a .blend."""
+panels' polls, `vto match --material NAME --save` on a .blend, and eye shadow matched from a photo of one eye."""
 
 import hashlib
 import json
@@ -23,7 +23,8 @@ from blender_addon.shipped import MODELS  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import read_image, write_image  # noqa: E402
 from vto_core.inference import EncoderSession, cached_session  # noqa: E402
-from vto_core.products import HAIR as HAIR_PRODUCT, LIPSTICK as LIPSTICK_PRODUCT, get_spec  # noqa: E402
+from vto_core.products import (EYESHADOW as EYESHADOW_PRODUCT, HAIR as HAIR_PRODUCT,  # noqa: E402
+                               LIPSTICK as LIPSTICK_PRODUCT, PRODUCTS, get_spec)
 
 MODEL = str(apply.default_model("lipstick"))
 SPEC = EncoderSession(MODEL).spec  # whatever the shipped model estimates: read from its metadata
@@ -905,3 +906,130 @@ def test_refinement_waits_while_another_thread_renders_in_cycles(tmp_path):
         release.set()
         preview.join(10)
     assert not another_thread_renders()
+
+
+# --- eye shadow: the Add VTO Material button, Match on a photo framed on one eye ----------------------------------
+
+EYESHADOW = get_spec("eyeshadow")
+TEAL = {"opacity": 0.9, "red": 40.0, "green": 120.0, "blue": 140.0}  # the look the eye photo wears
+
+
+@pytest.fixture(scope="module")
+def eye_photo(tmp_path_factory):
+    """A photo framed on one eye: the default eye scene (source 3) wearing a teal shadow, 32 px, as a PNG."""
+    from blender_addon.renderers.products import render
+
+    path = tmp_path_factory.mktemp("eye") / "eye.png"
+    write_image(path, render("eyeshadow", TEAL, 3, 32, 2), bits=16)
+    return str(path)
+
+
+@pytest.fixture
+def lid(request):
+    """A mesh with a fresh "VTO Eye Shadow" material made by the generic operator; its placement set by hand."""
+    obj = new_mesh(f"Lid {request.node.name}"[:60])
+    assert bpy.ops.vto.add_material(product="eyeshadow") == {"FINISHED"}
+    material = obj.active_material
+    shadow_node(material).inputs["Height"].default_value = 0.8  # the artist's, which a photo does not fix
+    return material.name
+
+
+def shadow_node(material):
+    if isinstance(material, str):
+        material = bpy.data.materials[material]
+    (node,) = apply.group_nodes(EYESHADOW_PRODUCT, material)
+    return node
+
+
+def shadow_inputs(material_name: str) -> dict[str, float]:
+    node = shadow_node(material_name)
+    return {p.name: float(node.inputs[p.socket].default_value) for p in EYESHADOW.params}
+
+
+def test_add_material_adds_each_material_products_group_and_the_old_lipstick_idname_still_works(lid):
+    from blender_addon.ui.operators import material_product_items
+
+    assert [item[0] for item in material_product_items(None, bpy.context)] == [
+        p.name for p in PRODUCTS.values() if p.is_material] == ["lipstick", "eyeshadow"]
+    material = bpy.data.materials[lid]
+    node = shadow_node(material)
+    assert node.node_tree.name == "VTO Eye Shadow" and apply.material_product(material) is EYESHADOW_PRODUCT
+    (output,) = [n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
+    assert output.inputs["Surface"].links[0].from_node == node
+    assert node.inputs["Lid"].links[0].from_node.bl_idname == "ShaderNodeBsdfPrincipled"
+    obj = bpy.context.view_layer.objects.active
+    assert obj.active_material.name == lid and {"REGISTER", "UNDO"} <= set(bpy.types.VTO_OT_add_material.bl_options)
+    assert bpy.types.VTO_OT_add_material.description(bpy.context, SimpleNamespace(product="eyeshadow")).startswith(
+        'Add a "VTO Eye Shadow" material')  # the tooltip names the product
+    assert bpy.ops.vto.add_material(product="lipstick") == {"FINISHED"}
+    assert apply.material_product(obj.active_material) is LIPSTICK_PRODUCT
+    assert bpy.ops.vto.add_lipstick_material() == {"FINISHED"}  # scripts' name from before
+    assert apply.material_product(obj.active_material) is LIPSTICK_PRODUCT and len(obj.material_slots) == 3
+    log = []  # the starting-point panel offers one button a material product
+    bpy.types.VTO_PT_add_lipstick.draw(SimpleNamespace(layout=FakeLayout(log)), bpy.context)
+    assert [entry for entry in log if entry[0] == "operator"] == [("operator", "vto.add_material")] * 2
+
+
+def test_eyeshadow_match_writes_the_encoders_estimate_of_a_photo_framed_on_one_eye(lid, eye_photo,
+                                                                                  eyeshadow_encoder):
+    """Find Region is on (the default), but eye shadow does not find eyelids yet: the photo is read as framed, whole,
+    with its light as it is; the estimate of the tiny trained encoder lands in the group, the rest stays."""
+    from blender_addon.matching.reference import read_reference
+    from blender_addon.ui.operators import target_items
+
+    assert EYESHADOW_PRODUCT.target_item in target_items(None, bpy.context)
+    before = shadow_inputs(lid)
+    assert run_match(target="EYESHADOW", material=lid, image_path=eye_photo, model_path=eyeshadow_encoder) == (
+        {"FINISHED"}, None)
+    after = shadow_inputs(lid)
+    reference = read_reference("eyeshadow", {"image_path": eye_photo})
+    assert reference.region is None and reference.light is None and np.array_equal(reference.image,
+                                                                                   load_reference(eye_photo))
+    session = EncoderSession(eyeshadow_encoder)
+    assert session.spec.modelled == ("opacity", "red", "green", "blue")
+    expected = expected_estimate(load_reference(eye_photo), eyeshadow_encoder)
+    assert {n: after[n] for n in expected} == pytest.approx(expected, abs=1e-4)
+    changed = {n for n in after if after[n] != before[n]}
+    assert changed <= set(expected) and changed and after["height"] == pytest.approx(0.8)  # the rest untouched
+    last = json.loads(bpy.data.materials[lid].vto_match.last_estimate)
+    assert last["renderer"] == "eyeshadow" and last["values"] == pytest.approx(expected)
+
+
+def test_eyeshadow_match_is_one_undo_step_and_a_failure_changes_nothing(lid, eye_photo, eyeshadow_encoder,
+                                                                        tmp_path):
+    before = shadow_inputs(lid)
+    lipstick_model = tiny_encoder(tmp_path / "lipstick.onnx", LIPSTICK.select(["opacity", "red"]))
+    for model, message in ((str(tmp_path / "none.onnx"), "no encoder model"),
+                           (lipstick_model, "estimates lipstick parameters, not eyeshadow")):
+        result, error = run_match(target="EYESHADOW", material=lid, image_path=eye_photo, model_path=model)
+        assert result == {"CANCELLED"} and len(error.splitlines()) == 1 and message in error, error
+    plain = bpy.data.materials.new("Plain Lid")
+    result, error = run_match(target="EYESHADOW", material=plain.name, image_path=eye_photo,
+                              model_path=eyeshadow_encoder)
+    assert result == {"CANCELLED"} and "does not use the 'VTO Eye Shadow' node group" in error
+    assert shadow_inputs(lid) == before and bpy.data.materials[lid].vto_match.last_estimate == ""
+    bpy.ops.ed.undo_push(message="before match")
+    assert run_match(target="EYESHADOW", material=lid, image_path=eye_photo,
+                     model_path=eyeshadow_encoder)[0] == {"FINISHED"}
+    bpy.ops.ed.undo_push(message="Match")  # what Blender's UI does after an operator declaring UNDO
+    assert shadow_inputs(lid) != before
+    bpy.ops.ed.undo()
+    assert shadow_inputs(lid) == before
+
+
+def test_eyeshadow_preference_defaults_to_the_shipped_model_and_the_panel_says_when_one_is_missing(lid, tmp_path):
+    from blender_addon.ui.preferences import VTO_AP_preferences
+
+    setting = VTO_AP_preferences.bl_rna.properties["eyeshadow_model"]
+    assert (setting.default, setting.subtype) == ("", "FILE_PATH")  # empty: the shipped one
+    assert apply.resolve_model("eyeshadow") == ROOT / "blender_addon" / "models" / "eyeshadow_encoder.onnx"
+    material = bpy.data.materials[lid]
+    material.vto_match.model_path = str(tmp_path / "gone.onnx")
+    log = []
+    context = SimpleNamespace(material=material, preferences=bpy.context.preferences, scene=bpy.context.scene)
+    bpy.types.VTO_PT_match_material.draw(SimpleNamespace(layout=FakeLayout(log)), context)
+    labels = [entry[1] for entry in log if entry[0] == "label"]
+    assert "no model file gone.onnx" in labels
+    assert "The photo is read as framed on the eyelids" in labels and ("prop", "find_region") not in log
+    assert [entry for entry in log if entry[0] == "enum"] == []  # EYESHADOW.fit.offered: Fast alone
+    assert EYESHADOW_PRODUCT.fit.not_offered in labels and ("operator", "vto.match_from_photo") in log
