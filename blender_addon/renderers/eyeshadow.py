@@ -6,11 +6,10 @@ import bpy
 import numpy as np
 
 from vto_core.dataset import DEFAULT_SAMPLES
-from vto_core.errors import VtoError
 from vto_core.products import get_spec
 
 from .cycles import configure_cycles, render_passes, render_user_scene, to_display
-from .node_utils import material_group_nodes, node_values, scene_group_nodes, set_group_values
+from .node_utils import material_group_nodes, scene_group_nodes, scene_group_values, set_group_values
 from .nodes_eyeshadow import GROUP_NAME
 from .scene_eyes import apply_source, build_eye_scene
 from .scene_lips import use_lighting
@@ -35,10 +34,7 @@ def set_eyeshadow_values(scene: bpy.types.Scene, values: dict[str, float], fill_
 
 def scene_values(scene: bpy.types.Scene) -> dict[str, float]:
     """The eye-shadow inputs of the first group node of `scene` as the artist set them (linked ones left out)."""
-    nodes = shadow_nodes(scene)
-    if not nodes:
-        raise VtoError(f"scene '{scene.name}' has no material using the '{GROUP_NAME}' node group")
-    return node_values(nodes[0], get_spec("eyeshadow"))
+    return scene_group_values(scene, get_spec("eyeshadow"), GROUP_NAME)
 
 
 def render_eyeshadow(values: dict[str, float], source: int = 0, res: int | None = 64,

@@ -6,10 +6,9 @@ import bpy
 import numpy as np
 
 from vto_core.dataset import DEFAULT_SAMPLES
-from vto_core.errors import VtoError
 from vto_core.products import get_spec
 
-from .node_utils import material_group_nodes, node_values, scene_group_nodes, set_group_values
+from .node_utils import material_group_nodes, scene_group_nodes, scene_group_values, set_group_values
 from .nodes_lipstick import GROUP_NAME
 from .cycles import configure_cycles, render_passes, render_user_scene, to_display
 from .scene_lips import applied, apply_source, build_lips_scene, use_lighting
@@ -33,10 +32,7 @@ def set_lipstick_values(scene: bpy.types.Scene, values: dict[str, float], fill_d
 
 def scene_values(scene: bpy.types.Scene) -> dict[str, float]:
     """The lipstick group inputs of the first makeup node of `scene` as the artist set them (linked ones left out)."""
-    nodes = makeup_nodes(scene)
-    if not nodes:
-        raise VtoError(f"scene '{scene.name}' has no material using the '{GROUP_NAME}' node group")
-    return node_values(nodes[0], get_spec("lipstick"))
+    return scene_group_values(scene, get_spec("lipstick"), GROUP_NAME)
 
 
 def linked_inputs(scene: bpy.types.Scene) -> list[str]:

@@ -117,6 +117,20 @@ def scene_group_nodes(scene: bpy.types.Scene, group_name: str) -> list[bpy.types
     return [node for material in materials for node in material_group_nodes(material, group_name)]
 
 
+def required_group_nodes(scene: bpy.types.Scene, group_name: str) -> list[bpy.types.Node]:
+    """scene_group_nodes, or a one-line VtoError where `scene` has none."""
+    nodes = scene_group_nodes(scene, group_name)
+    if not nodes:
+        raise VtoError(f"scene '{scene.name}' has no material using the '{group_name}' node group")
+    return nodes
+
+
+def scene_group_values(scene: bpy.types.Scene, spec: RendererSpec, group_name: str) -> dict[str, float]:
+    """`spec`'s inputs of the first node of `scene` using the group `group_name`, as the artist set them (linked ones
+    left out)."""
+    return node_values(required_group_nodes(scene, group_name)[0], spec)
+
+
 def material_name(node: bpy.types.Node) -> str:
     """The name of the material whose node tree holds `node`."""
     return next((m.name for m in bpy.data.materials if m.node_tree == node.id_data), node.id_data.name)
@@ -132,9 +146,7 @@ def set_group_values(scene: bpy.types.Scene, spec: RendererSpec, group_name: str
     """
     full = spec.full_values(values)  # checked and clamped
     chosen = full if fill_defaults else {name: full[name] for name in values}
-    nodes = scene_group_nodes(scene, group_name)
-    if not nodes:
-        raise VtoError(f"scene '{scene.name}' has no material using the '{group_name}' node group")
+    nodes = required_group_nodes(scene, group_name)
     for node in nodes:
         for name in chosen:
             socket = node.inputs[spec.by_name[name].socket]
