@@ -18,7 +18,7 @@ from vto_core.colour import srgb_to_linear
 from ..compat import enable_nodes
 from .lighting import build_hdri_world
 from .nodes_eyeshadow import ACROSS_ATTRIBUTE, LID_ATTRIBUTE, eyeshadow_material
-from .scene_lips import SKIN_TONES, randomise_light, use_lighting
+from .scene_lips import SKIN_TONES, mesh_object, randomise_light, use_lighting
 
 SCENE_NAME = "VTO Eye"
 LID_OBJECT, SKIN_OBJECT = "VTO Eyelid", "VTO Eye Skin"
@@ -242,16 +242,6 @@ def _skin_faces() -> list[tuple[int, int, int, int]]:
     return upper + _grid_faces(columns, BELOW_ROWS, (LID_ROWS + ABOVE_ROWS + 1) * (columns + 1))
 
 
-def _mesh_object(scene, name: str, vertices: np.ndarray, faces, material) -> bpy.types.Object:
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(vertices.reshape(-1, 3).tolist(), [], faces)
-    mesh.materials.append(material)
-    mesh.shade_smooth()
-    obj = bpy.data.objects.new(name, mesh)
-    scene.collection.objects.link(obj)
-    return obj
-
-
 def _principled_material(name: str, roughness: float) -> tuple[bpy.types.Material, bpy.types.Node]:
     material = bpy.data.materials.new(name)
     enable_nodes(material)
@@ -371,15 +361,15 @@ def build_eye_scene() -> bpy.types.Scene:
     shape = eye_shape(np.random.default_rng(0))
     lid_columns = _lid_columns().stop - _lid_columns().start - 1
     upper, lower = upper_vertices(shape), lower_vertices(shape)
-    lid = _mesh_object(scene, LID_OBJECT, upper[: LID_ROWS + 1, _lid_columns()], _grid_faces(lid_columns, LID_ROWS),
+    lid = mesh_object(scene, LID_OBJECT, upper[: LID_ROWS + 1, _lid_columns()], _grid_faces(lid_columns, LID_ROWS),
                        _lid_material())
     lid.pass_index = EYELID_PASS_INDEX
     for name, values in zip((LID_ATTRIBUTE, ACROSS_ATTRIBUTE), lid_coordinates()):
         lid.data.attributes.new(name, "FLOAT", "POINT").data.foreach_set("value", values.reshape(-1))
-    skin = _mesh_object(scene, SKIN_OBJECT, np.concatenate([upper.reshape(-1, 3), lower.reshape(-1, 3)]),
+    skin = mesh_object(scene, SKIN_OBJECT, np.concatenate([upper.reshape(-1, 3), lower.reshape(-1, 3)]),
                         _skin_faces(), _skin_material())
     skin.data.attributes.new("brow", "FLOAT", "POINT")
-    lashes = _mesh_object(scene, LASH_OBJECT, lash_vertices(shape, upper, lower),
+    lashes = mesh_object(scene, LASH_OBJECT, lash_vertices(shape, upper, lower),
                           _lash_faces(LASHES_UPPER + LASHES_LOWER), _principled_material(LASH_MATERIAL, 0.7)[0])
     lashes.data.materials[0].node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (
         0.004, 0.003, 0.0025, 1.0)

@@ -96,9 +96,10 @@ def _grid_faces(columns: int, rows: int, offset: int = 0) -> list[tuple[int, int
     ]
 
 
-def _mesh_object(scene, name: str, vertices: np.ndarray, faces, material) -> bpy.types.Object:
+def mesh_object(scene, name: str, vertices: np.ndarray, faces, material) -> bpy.types.Object:
+    """A new smooth-shaded mesh object in `scene` with `vertices` (..., 3), `faces` and `material`."""
     mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(vertices.tolist(), [], faces)
+    mesh.from_pydata(vertices.reshape(-1, 3).tolist(), [], faces)
     mesh.materials.append(material)
     mesh.shade_smooth()
     obj = bpy.data.objects.new(name, mesh)
@@ -130,7 +131,7 @@ def build_lips_scene() -> bpy.types.Scene:
         return scene
     scene = bpy.data.scenes.new(SCENE_NAME)
     shape = lip_shape(np.random.default_rng(0))
-    lips = _mesh_object(scene, LIPS_OBJECT, lip_vertices(shape),
+    lips = mesh_object(scene, LIPS_OBJECT, lip_vertices(shape),
                         _grid_faces(LIP_COLUMNS, LIP_ROWS) + _grid_faces(LIP_COLUMNS, LIP_ROWS, (LIP_COLUMNS + 1) * (LIP_ROWS + 1)),
                         lipstick_material(LIPS_MATERIAL))
     lips.pass_index = LIPS_PASS_INDEX
@@ -142,7 +143,7 @@ def build_lips_scene() -> bpy.types.Scene:
     lips.data.loops.foreach_get("vertex_index", loop_vertices)
     uv_layer.data.foreach_set("uv", uv_per_vertex[loop_vertices].reshape(-1))
     skin_positions, _ = skin_vertices(shape)
-    skin = _mesh_object(scene, SKIN_OBJECT, skin_positions, _grid_faces(SKIN_COLUMNS, SKIN_ROWS), _skin_material())
+    skin = mesh_object(scene, SKIN_OBJECT, skin_positions, _grid_faces(SKIN_COLUMNS, SKIN_ROWS), _skin_material())
     skin.data.attributes.new("mouth", "FLOAT", "POINT")
     camera = bpy.data.objects.new("VTO Camera", bpy.data.cameras.new("VTO Camera"))
     camera.data.lens = 62.0
