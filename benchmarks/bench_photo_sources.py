@@ -70,9 +70,10 @@ def lab(colour: np.ndarray) -> np.ndarray:
 
 
 class Renders:
-    """Default-scene renders of looks on sources (64 px, 16 spp), kept by look."""
+    """Default-scene renders of a product's looks on sources (64 px, 16 spp), kept by look."""
 
-    def __init__(self):
+    def __init__(self, renderer: str = "lipstick"):
+        self.renderer = renderer
         self.kept: dict[tuple, list] = {}
 
     def __call__(self, values: dict[str, float], sources) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -80,11 +81,11 @@ class Renders:
 
         key = (tuple(sorted((k, round(float(v), 6)) for k, v in values.items())), tuple(sources))
         if key not in self.kept:
-            self.kept[key] = [region_renderer("lipstick", source)(values) for source in sources]
+            self.kept[key] = [region_renderer(self.renderer, source)(values) for source in sources]
         return self.kept[key]
 
     def apparent(self, values: dict[str, float], sources) -> np.ndarray:
-        """The median over `sources` of the lips' mean display colour (3,)."""
+        """The median over `sources` of the region's mean display colour (3,)."""
         from vto_core.appearance import mean_colour
 
         return np.median([mean_colour(rgb, mask) for rgb, mask in self(values, sources)], axis=0)

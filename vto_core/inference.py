@@ -96,6 +96,28 @@ class EncoderSession:
         unit = self.predict_unit_nchw(np.stack([self.prepare(image) for image in images]))
         return [self.spec.values(self.spec.denormalise(np.clip(row, 0.0, 1.0))) for row in unit]
 
+    def predict_views(self, groups: list[list[np.ndarray]]) -> list[dict[str, float]]:
+        """Groups of views (H, W, 3) of one product each (both eyes' lids) -> one dict of raw values a group: the mean
+        of its views' estimates (mean_unit), all read in one run."""
+        images = [image for views in groups for image in views]
+        unit = np.clip(self.predict_unit_nchw(np.stack([self.prepare(image) for image in images])), 0.0, 1.0)
+        ends = np.cumsum([len(views) for views in groups])
+        return [self.spec.values(self.spec.denormalise(mean_unit(self.spec, rows)))
+                for rows in np.split(unit, ends[:-1])]
+
+
+def mean_unit(spec, unit: np.ndarray) -> np.ndarray:
+    """(N, m) normalised estimates of one product -> (m,) their mean; a wrapping parameter's (hue) on the circle."""
+    unit = np.asarray(unit)
+    if len(unit) == 1:  # one view: its estimate, bit for bit
+        return unit[0]
+    mean = unit.astype(np.float64).mean(axis=0)
+    for column, param in enumerate(spec.modelled_params):
+        if param.wraps:
+            angle = 2 * np.pi * unit[:, column]
+            mean[column] = (np.arctan2(np.sin(angle).mean(), np.cos(angle).mean()) / (2 * np.pi)) % 1.0
+    return mean
+
 
 def shrink(image: np.ndarray, height: int, width: int) -> np.ndarray:
     """A very large (H, W, C) image reduced by block means of an integer factor, keeping at least twice

@@ -33,6 +33,10 @@ class FaceRegion:
     name: str  # what the panel and the notes call it: "lips"
     loops: tuple[tuple[int, ...], ...]
     frame_share: float  # the share of its square's width it spans where the default scene frames it (what encoders see)
+    min_width: float = 0.0  # px across (its outer loop's width along the face) under which a photo's is too small to read
+    opening: tuple[int, ...] = ()  # a loop that must show what it frames (the eye) for the region to be seen; () none
+    skin: tuple[int, ...] = ()  # a loop of bare skin beside it (the cheek under the eye) the opening is judged against
+    mirrored: bool = False  # read flipped left to right: the default scene shows its mirror image (the other eye)
 
 
 @dataclass(frozen=True)
@@ -81,11 +85,16 @@ class Product:
     layer_looks: bool = False  # a visibility look adds the layer an input acts on (flakes, a coat)
     mouth_views: bool = False  # its encoder may train on open mouths with teeth painted over the region
     tryon: bool = False  # it can be tried on a photo (`vto tryon`, Preview on Photo, batch's sheet)
-    finds_region: bool = True  # Match finds its region in a whole photo; False: a photo is read as framed on it
     asset_library: bool = False  # `vto batch` writes its presets as materials of an asset library
     no_library: str = ""  # why it has none
     presets: str = ""  # its expert presets file; "": vto_core/presets/<name>.json
     smoke_params: tuple[str, ...] = ()  # what `vto demo --size smoke` models: what a tiny encoder learns in a minute
+    other_regions: tuple[FaceRegion, ...] = ()  # the face's other places wearing it (the left eye): read too, averaged
+
+    @property
+    def face_regions(self) -> tuple[FaceRegion, ...]:
+        """Every face-mesh region a face wears it on, its face_region first; () for a product found otherwise."""
+        return () if self.face_region is None else (self.face_region, *self.other_regions)
 
     @property
     def target_item(self) -> tuple[str, str, str]:
@@ -153,27 +162,36 @@ HAIR = Product(
 # One eye's lid: the lid margin (outer corner to inner), up its inner side through MediaPipe's two rings between, the
 # brow's lower edge (inner to outer) and down its outer side (DESIGN.md "Eye shadow"; a simple polygon on the portraits
 # of data/faces). A region is one outer polygon, so each eye is its own: EYELIDS, the product's, is the subject's right
-# eye (the photo's left); the left eye's mirror loop waits for the portraits' try-on.
+# eye (the photo's left), as the default eye scene shows it; the left eye is read flipped, as a right eye.
 RIGHT_EYELID_LOOP = (33, 246, 161, 160, 159, 158, 157, 173, 133, 190, 189, 65, 52, 53, 46, 124, 35, 113, 247)
 LEFT_EYELID_LOOP = (263, 466, 388, 387, 386, 385, 384, 398, 362, 414, 413, 295, 282, 283, 276, 353, 265, 342, 467)
+# The eye openings (the lid margins, upper then lower): where a seen eye shows its white and iris; and the cheek under
+# each eye, the bare skin its white is told from.
+RIGHT_EYE_OPENING = (33, 246, 161, 160, 159, 158, 157, 173, 133, 155, 154, 153, 145, 144, 163, 7)
+LEFT_EYE_OPENING = (263, 466, 388, 387, 386, 385, 384, 398, 362, 382, 381, 380, 374, 373, 390, 249)
+RIGHT_CHEEK, LEFT_CHEEK = (117, 118, 101, 36, 205, 187, 123), (346, 347, 330, 266, 425, 411, 352)
 # The default eye scene frames the lid in a square whose width it spans this share of (scene_eyes.eyelid_mask over
 # sources 0-7 at 64 px: 0.78-0.88, mean 0.82), centred on the lid's box, as the lips are framed.
 EYELID_FRAME_SHARE = 0.82
-EYELIDS = FaceRegion("eyelids", (RIGHT_EYELID_LOOP,), EYELID_FRAME_SHARE)
-LEFT_EYELID = FaceRegion("eyelids", (LEFT_EYELID_LOOP,), EYELID_FRAME_SHARE)
+# A lid narrower than this is too small to read: the encoder would see it sampled up more than 4x (the portraits of
+# benchmarks/photos and the held-out faces show lids 32-141 px across).
+MIN_EYELID_WIDTH = 16
+EYELIDS = FaceRegion("eyelids", (RIGHT_EYELID_LOOP,), EYELID_FRAME_SHARE, MIN_EYELID_WIDTH, RIGHT_EYE_OPENING,
+                     RIGHT_CHEEK)
+LEFT_EYELID = FaceRegion("eyelids", (LEFT_EYELID_LOOP,), EYELID_FRAME_SHARE, MIN_EYELID_WIDTH, LEFT_EYE_OPENING,
+                         LEFT_CHEEK, mirrored=True)
 
 # Eye shadow renders like the lipstick (a material's group over the lid's own shader, Cycles at ~0.15 s a 64 px render),
-# so its fits cost what the lipstick's do; Better and Best wait for their measurement on eyes, and the try-on on
-# portraits (fits in the photo's own scene) for the next issue. Until then a photo is one eye, framed as the default
-# eye scene frames it, read as it is (finds_region=False).
+# so its fits would cost what the lipstick's do; Better and Best wait for their measurement on eyes. A portrait is read
+# at both eyes' lids (each framed as the default eye scene frames one, the left flipped), the estimate their mean.
 EYESHADOW = Product(
     "eyeshadow", "Eye Shadow", eyeshadow_spec(), MATERIAL, "eyelids", EYELIDS,
     FitPolicy(renders=frozen({"BETTER": (1, 25), "BEST": (2, 100)}),
               seconds=frozen({"BETTER": (3, 11), "BEST": (12, 18)}),
               offered=("FAST",), not_offered="Better and Best: not yet measured on eyes", prior_weight=8.0),
     "EYESHADOW", "'VTO Eye Shadow' group", ".product_eyeshadow", lightings=True, masks=True,
-    look=frozen({"opacity": 1.0}), layer_looks=True, finds_region=False, asset_library=True,
-    smoke_params=("opacity", "red", "green", "blue"))
+    photo_datasets=True, look=frozen({"opacity": 1.0}), layer_looks=True, tryon=True, asset_library=True,
+    smoke_params=("opacity", "red", "green", "blue"), other_regions=(LEFT_EYELID,))
 
 PRODUCTS: dict[str, Product] = {product.name: product for product in (LIPSTICK, HAIR, EYESHADOW)}
 

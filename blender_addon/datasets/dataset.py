@@ -17,7 +17,7 @@ from vto_core.dataset import (DEFAULT_RES, DEFAULT_SAMPLES, FORMAT_VERSION, Samp
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler
-from vto_core.products import Product, get_product, get_spec
+from vto_core.products import PRODUCTS, Product, get_product, get_spec
 from vto_core.specs import RendererSpec
 
 from ..renderers.lipstick import linked_inputs, scene_values
@@ -48,7 +48,7 @@ class DatasetJob:
     vary: tuple[str, ...] = ()  # unmodelled inputs drawn per look over their ranges: the encoder learns to look past
     looks_per_source: int = 1  # hair, default scene: consecutive looks share one source render (cached on disk)
     masks: bool = False  # lipstick, default scene: also write the lips mask (hair always writes its hair mask)
-    photos: str | None = None  # lipstick: try the looks on these portraits' lips (photo_looks) instead
+    photos: str | None = None  # try the looks on these portraits' face regions (photo_looks) instead
     spec: RendererSpec = field(init=False)
 
     @property
@@ -92,7 +92,8 @@ class DatasetJob:
 
             if (not product.photo_datasets or self.scene is not None or self.sensitivity or self.masks
                     or self.lighting is not None):
-                raise VtoError("--photos tries lipstick looks on portraits in their own light: not with --blend, "
+                tried = ", ".join(p.name for p in PRODUCTS.values() if p.photo_datasets)
+                raise VtoError(f"--photos tries {tried} looks on portraits in their own light: not with --blend, "
                                "--lighting, --sensitivity or --masks")
             if not Path(self.photos).is_dir():
                 raise VtoError(f"--photos {self.photos} is not a folder")
@@ -172,7 +173,7 @@ class SampleRenderer:
         if job.photos is not None:
             from .photo_looks import PhotoLooks
 
-            self.photo_looks = PhotoLooks(job.photos, job.res, job.samples, job.seed)
+            self.photo_looks = PhotoLooks(job.photos, job.res, job.samples, job.seed, job.product)
         if job.product.photo_is_own_source and job.source_folder:
             from ..renderers.hair import photo_sources
 

@@ -1,10 +1,12 @@
-"""Looks tried on real portraits (`vto dataset lipstick --photos DIR`): the try-on renderer's products on training
-faces, read as Match reads a photo, through the views a camera adds (the paper's real faces with the makeup drawn on).
+"""Looks tried on real portraits (`vto dataset lipstick|eyeshadow --photos DIR`): the try-on renderer's products on
+training faces, read as Match reads a photo, through the views a camera adds (the paper's real faces with the makeup
+drawn on).
 
-Each look: a face of DIR (consecutive looks share one, BLOCK at a time), the product tried on it (renderers.tryon, its
-bare render kept per face), then a camera's view of the made-up photo: its exposure and white balance, a JPEG, the
-framing jittered as landmarks jitter, and a mirror; then Match's reading (the photo's light read beside the lips and
-taken out, the lips frame shrunk to the encoder's size). The same look's photo without the product is its source X.
+Each look: a face of DIR (consecutive looks share one, BLOCK at a time) and one of the product's regions on it (the lips;
+the right or left eye's lid, by turns), the product tried on it (renderers.tryon, its bare render kept per face and
+region), then a camera's view of the made-up photo: its exposure and white balance, a JPEG, the framing jittered as
+landmarks jitter, and a mirror; then Match's reading (the photo's light read beside the lips and taken out, the region's
+frame shrunk to the encoder's size, a left eye flipped). The same look's photo without the product is its source X.
 
 Shapes: photos (H, W, 3) display sRGB in [0, 1]; crops res x res.
 """
@@ -24,12 +26,14 @@ from vto_core.imageio import jpeg_round_trip, read_image, resize
 from vto_core.inference import shrink
 from vto_core.photo.framing import region_view, view_cut
 from vto_core.photo.photo_light import light_of, relit
+from vto_core.products import Product
 
-from ..renderers.tryon import on_photo, photo_lips, product_ratio
+from ..renderers.tryon import on_photo, photo_regions, product_ratio
+from ..shipped import photo_reader
 
 PHOTO_SUFFIXES = (".jpg", ".jpeg", ".png", ".tif", ".tiff")
 TRAINING_SPLIT = "train"  # faces.json's split that may be trained on; held_out and evaluation faces never are
-BLOCK = 32  # consecutive looks on one face: its lips are found and its bare render made once per block
+BLOCK = 32  # consecutive looks on one face: its regions are found and their bare renders made once per block
 FRAME_RENDER = 96  # px: the lips frame is rendered at this size, then read at the dataset's (smaller) size
 BARE_SEED = 0  # Cycles seed of every face's bare render
 _VIEW_STREAM = 9
@@ -90,10 +94,12 @@ def face_index(seed: int, index: int, count: int) -> int:
     return int(order[block % count])
 
 
-def match_read(photo: np.ndarray, lips, view: CameraView, res: int, scratch: Path) -> np.ndarray:
-    """What Match reads of a made-up `photo` (H, W, 3) whose lips are `lips` (LipsFound), seen through `view`:
-    (res, res, 3) display. Only the part around the lips is worked on (the light is read beside them)."""
-    frame, size, _ = region_view(lips)
+def match_read(photo: np.ndarray, target, view: CameraView, res: int, scratch: Path) -> np.ndarray:
+    """What Match reads of a made-up `photo` (H, W, 3) at `target`'s region (a renderers.tryon.PhotoRegion), seen
+    through `view`: (res, res, 3) display. Only the part around the region (and the lips, beside which the light is
+    read) is worked on."""
+    found, region = target.lips, target.region
+    frame, size, _ = region_view(found, region)
     centre = frame @ np.array([size / 2, size / 2, 1.0])
     side = size * view.zoom
     jittered = frame.copy()
@@ -103,29 +109,36 @@ def match_read(photo: np.ndarray, lips, view: CameraView, res: int, scratch: Pat
     height, width = photo.shape[:2]
     x0, y0 = (max(0, (int(c) - reach) // 8 * 8) for c in centre)  # on the JPEG's 8 px blocks
     x1, y1 = min(width, int(centre[0]) + reach), min(height, int(centre[1]) + reach)
+    beside = photo_reader().light_mask((region, found), found.mask)
+    if beside is not found.mask:  # the light is read beside the lips: the part reaches them and the skin around them
+        rows, cols = np.nonzero(beside)
+        grow = int(cols.max() - cols.min()) // 2 + 8
+        x0, y0 = max(0, min(x0, (int(cols.min()) - grow) // 8 * 8)), max(0, min(y0, (int(rows.min()) - grow) // 8 * 8))
+        x1, y1 = min(width, max(x1, int(cols.max()) + grow)), min(height, max(y1, int(rows.max()) + grow))
     part = relit(photo[y0:y1, x0:x1], np.asarray(view.gains))
     if view.jpeg_quality is not None:
         part = jpeg_round_trip(part, view.jpeg_quality, scratch)
-    light = light_of(part, lips.mask[y0:y1, x0:x1])
+    light = light_of(part, beside[y0:y1, x0:x1])
     jittered[:, 2] -= (x0, y0)
     image = view_cut(part, jittered, size, light)
     image = resize(shrink(image, res, res), res, res)
-    return np.ascontiguousarray(image[:, ::-1] if view.mirror else image)
+    return np.ascontiguousarray(image[:, ::-1] if view.mirror != region.mirrored else image)
 
 
 class PhotoLooks:
-    """Renders looks onto the faces of a --photos folder; keeps the last face's lips and bare render."""
+    """Renders looks onto the faces of a --photos folder; keeps the last face's regions and bare renders."""
 
-    def __init__(self, folder: str | Path, res: int, samples: int, seed: int):
+    def __init__(self, folder: str | Path, res: int, samples: int, seed: int, product: Product):
         self.faces = training_faces(folder)
-        self.res, self.samples, self.seed = res, samples, seed
+        self.res, self.samples, self.seed, self.product = res, samples, seed, product
         self.scratch = Path(tempfile.mkdtemp(prefix="vto-photo-looks-"))
-        self._face: tuple[int, object, np.ndarray | None] | None = None
+        self._face: tuple[int, list, list] | None = None
         self.unusable: set[int] = set()
 
     def face(self, number: int):
-        """(the number of the face used, its PhotoLips framed at FRAME_RENDER px, its bare render or None): face
-        `number`, or where no lips can be tried on it (vto_core's 'no face found ...'), the next one that has."""
+        """(the number of the face used, its regions (PhotoRegion) framed at FRAME_RENDER px, their bare renders or
+        None): face `number`, or where the product cannot be tried on it (vto_core's 'no face found ...', eyes hidden),
+        the next one where it can."""
         for step in range(len(self.faces)):
             candidate = (number + step) % len(self.faces)
             if self._face is not None and self._face[0] == candidate:
@@ -133,20 +146,25 @@ class PhotoLooks:
             if candidate in self.unusable:
                 continue
             try:
-                self._face = (candidate, photo_lips(read_image(self.faces[candidate])[0], FRAME_RENDER), None)
+                targets = photo_regions(read_image(self.faces[candidate])[0], self.product, FRAME_RENDER)
+                self._face = (candidate, targets, [None] * len(targets))
                 return self._face
             except VtoError:
                 self.unusable.add(candidate)
-        raise VtoError(f"--photos: no lips can be tried on any of the {len(self.faces)} portraits")
+        raise VtoError(f"--photos: no {self.product.region} can be tried on any of the {len(self.faces)} portraits")
 
     def look(self, index: int, values: dict[str, float], source_image: bool
              ) -> tuple[np.ndarray | None, np.ndarray, dict]:
         """Look `index` wearing `values`: (its source X, the made-up photo as Match reads it, what the record notes)."""
-        number, target, bare = self.face(face_index(self.seed, index, len(self.faces)))
-        ratio, bare = product_ratio(target, values, self.samples, index, bare=bare, bare_seed=BARE_SEED)
-        self._face = (number, target, bare)
+        number, targets, bares = self.face(face_index(self.seed, index, len(self.faces)))
+        which = index % len(targets)  # the regions by turns (the lips: the one)
+        target = targets[which]
+        ratio, bares[which] = product_ratio(target, values, self.samples, index, bare=bares[which], bare_seed=BARE_SEED)
         view = camera_view(self.seed, index)
         worn = on_photo(target.photo, target.lips, target.to_frame, ratio, values["opacity"])
-        render = match_read(worn, target.lips, view, self.res, self.scratch)
-        source = match_read(target.photo, target.lips, view, self.res, self.scratch) if source_image else None
-        return source, render, {"source": number, "face": self.faces[number].name, "view": view.__dict__}
+        render = match_read(worn, target, view, self.res, self.scratch)
+        source = match_read(target.photo, target, view, self.res, self.scratch) if source_image else None
+        notes = {"source": number, "face": self.faces[number].name, "view": view.__dict__}
+        if len(targets) > 1:
+            notes["region"] = which
+        return source, render, notes

@@ -138,9 +138,10 @@ def current_values(nodes: list, spec: RendererSpec) -> dict[str, float]:
 
 # --- the estimate -------------------------------------------------------------------------------------------------
 
-def estimate(session: EncoderSession, spec: RendererSpec, reference: np.ndarray) -> dict[str, float]:
-    """The encoder's estimate of the modelled parameters (raw units)."""
-    values = session.predict(reference)[0]
+def estimate(session: EncoderSession, spec: RendererSpec, views: list[np.ndarray]) -> dict[str, float]:
+    """The encoder's estimate of the modelled parameters (raw units) from the views of one product (both eyes: their
+    mean)."""
+    values = session.predict_views([views])[0]
     return {name: float(values[name]) for name in spec.modelled}
 
 
@@ -172,7 +173,7 @@ def iter_compute(prepared: dict):
     from ..scratch import scratch_data
 
     spec, reference = prepared["spec"], prepared["reference"]
-    values = encoder = estimate(prepared["session"], spec, reference.image)
+    values = encoder = estimate(prepared["session"], spec, reference.images)
     if reference.region is not None:
         values, note = yield from iter_fit_photo_fast(spec, reference.region, values, quality=prepared["quality"])
         reference.notes += [note] if note else []

@@ -138,9 +138,9 @@ def no_tryon_line(product) -> str:
 
 
 def batch_reference(renderer: str, image: Path):
-    """A photo of the folder made ready as the panel makes it (blender_addon.matching.reference.read_reference): lips
-    found (lipstick), or the hair (its '<name>_mask' beside it wins; else the hair found around a face, or a patch of
-    hair with no face read whole), or, for a product that finds no region yet (eye shadow), the photo as framed."""
+    """A photo of the folder made ready as the panel makes it (blender_addon.matching.reference.read_reference): its
+    face regions found (the lips, both eyes' lids), or the hair (its '<name>_mask' beside it wins; else the hair found
+    around a face, or a patch of hair with no face read whole)."""
     mask = next(iter(sorted(image.parent.glob(image.stem + "_mask.*"))), None)
     return read_reference(renderer, {"image_path": str(image), "mask_path": str(mask) if mask else ""})
 
@@ -181,7 +181,7 @@ def estimate_images(session: EncoderSession, images: list[Path], out: Path, fing
                     skipped.append({"image": image.name, "reason": str(exc)})
             if loaded:
                 for (image, reference), values in zip(loaded.items(),
-                                                      session.predict([r.image for r in loaded.values()])):
+                                                      session.predict_views([r.images for r in loaded.values()])):
                     values = fast_values(session.spec, reference, values)
                     estimates[image.name] = values
                     record = {"key": _cache_key(image, fingerprint), "renderer": session.spec.renderer,

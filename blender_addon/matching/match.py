@@ -130,13 +130,13 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
                 "neutral_light": neutral_light and source is None}
     prepared = read_reference(spec.renderer, settings)
     started = time.perf_counter()
-    values = session.predict(prepared.image)[0]
+    values = session.predict_views([prepared.images])[0]
     result = {"renderer": spec.renderer, "params": values, "refined": False, "note": "", "notes": prepared.notes,
               "encoder_ms": 1000 * (time.perf_counter() - started)}
     turn = round(math.degrees(prepared.turn), 1)  # the face's roll the region was read upright from
-    if prepared.lips is not None:
-        result["lips"] = {"how": prepared.lips.how, "box": list(prepared.lips.box), "faces": prepared.lips.faces,
-                          "turn": turn}
+    if prepared.lips is not None:  # the region found ("lips", "eyelids": the first of each place read)
+        result[product.region] = {"how": prepared.lips.how, "box": list(prepared.lips.box),
+                                  "faces": prepared.lips.faces, "turn": turn, "views": len(prepared.images)}
     if prepared.hair is not None:
         result["hair"] = {"box": list(prepared.hair.box), "faces": prepared.hair.faces,
                           "share": round(float(prepared.hair.mask.mean()), 4), "turn": turn}

@@ -97,7 +97,7 @@ def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], qu
     """Fit the lipstick's modelled values so that, tried on `target`'s bare lips (scene_target, framed at
     SCENE_FIT[quality]'s size), they show what the photo shows, with SCENE_FIT[quality]'s renders from `start` (Fast's
     modelled raw values). A generator: yields renders made so far; returns the fitted modelled values (raw)."""
-    from ..renderers.scene_photo import set_bare_lips
+    from ..renderers.scene_photo import set_bare
     from ..renderers.tryon import render_look, set_photo_lips
     from .refine import iter_refine_by_render
 
@@ -106,7 +106,7 @@ def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], qu
     renders = SCENE_FIT[quality][1]
     predicted = bare_lips(skin_colour(target.frame, target.mask))
     scene = set_photo_lips(target, samples, seed)
-    set_bare_lips(predicted / target.cast)
+    set_bare(target.layer, predicted / target.cast)
     bare = render_look(scene, spec.full_values({"opacity": 0.0}))
     yield 1
     soft = feathered(target.mask)
@@ -119,7 +119,7 @@ def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], qu
     yield 2
     # The scene's bare lips take the colour of what lies under the layer, as the try-on's take the photo's: under an
     # opaque product the level of the lips under it then divides out, whatever the bare lips' colour was guessed.
-    set_bare_lips(under[target.mask > 0.5].mean(axis=0, dtype=np.float64) / target.cast)
+    set_bare(target.layer, under[target.mask > 0.5].mean(axis=0, dtype=np.float64) / target.cast)
     bare = render_look(scene, spec.full_values({"opacity": 0.0}))
     yield 3
     weights = (255.0 * np.sqrt(trust / max(float(trust.sum()), 1e-6)))[..., None]

@@ -53,14 +53,15 @@ def cmd_tryon(argv: list[str]) -> int:
 
     from ..renderers.products import blender_side
 
-    parser = ArgumentParser(prog="vto tryon", description="draw a product (a lipstick) onto a portrait")
+    parser = ArgumentParser(prog="vto tryon", description="draw a product (a lipstick, an eye shadow) onto a portrait")
     parser.add_argument("renderer", choices=[p.name for p in PRODUCTS.values() if p.tryon])
     parser.add_argument("--image", required=True, help="a portrait (any format the add-on reads)")
     parser.add_argument("--params", required=True,
                         help="a preset's name, preset:NAME, a JSON object or file (vto match's output too)")
     parser.add_argument("--out", required=True, help="image file (.png, .jpg, .tif, .exr)")
     parser.add_argument("--crop", type=int, nargs="?", const=64, default=None,
-                        help="write the lips framed as Match frames them, N x N px (default 64), not the whole photo")
+                        help="write the region (the lips, the right eye's lid) framed as Match frames it, N x N px (default 64), "
+                        "not the whole photo")
     parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES)
     parser.add_argument("--seed", type=int, default=0, help="Cycles seed: a run is repeatable byte for byte")
     args = parser.parse_args(argv)

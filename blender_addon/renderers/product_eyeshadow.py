@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from vto_core.errors import VtoError
@@ -12,6 +14,9 @@ from .products import BoundSource, ProductRenderer
 # Default-scene seeds the photo fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up.
 EYE_POOL = tuple(range(900001, 900025))
 DARK_SHADOW = 60.0  # max(R, G, B) below this (of 255) is a very dark shade (the smoky blacks)
+# px across a lid (along the face): narrower lids are too small to render onto. The astronaut's, in a 512 px portrait,
+# are 30; the 18 portraits' 29-141.
+MIN_LID_WIDTH = 24
 
 
 class EyeShadowRenderer(ProductRenderer):
@@ -44,6 +49,21 @@ class EyeShadowRenderer(ProductRenderer):
         yet: the eyes' try-on on portraits is the next issue)."""
         return [self.region_renderer(seed, res, samples) for seed in EYE_POOL[:count]]
         yield  # a generator, as the other products' (nothing to wait for)
+
+    @functools.cached_property
+    def photo_layer(self):
+        """Each eye's lid as the photo scene renders it (blender_addon.renderers.tryon): a patch on its face-mesh loop,
+        with the lid coordinates the group reads."""
+        from vto_core.photo.tryon import lid_mesh
+
+        from .nodes_eyeshadow import ACROSS_ATTRIBUTE, GROUP_NAME, LID_ATTRIBUTE, eyeshadow_material
+        from .scene_photo import PhotoLayer
+
+        def attributes(uvs):  # u: 0 at the outer end, 1 at the inner; across: 1 at the outer end, -1 at the inner
+            return {LID_ATTRIBUTE: uvs[:, 1], ACROSS_ATTRIBUTE: 1.0 - 2.0 * uvs[:, 0]}
+
+        return PhotoLayer("Eyelid", "eyeshadow", GROUP_NAME, eyeshadow_material, "Bare Lid", lid_mesh, MIN_LID_WIDTH,
+                          attributes)
 
     def nodes(self, material):
         from .eyeshadow import material_nodes

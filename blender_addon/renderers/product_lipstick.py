@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from vto_core.errors import VtoError
@@ -14,6 +16,9 @@ from .products import BoundSource, ProductRenderer
 LIPS_POOL = tuple(range(900001, 900025))
 MAX_TONE_RATIO = 4.0  # a source's skin tone is scaled (linear, per channel) by at most this either way
 DARK_LIPSTICK = 60.0  # max(R, G, B) below this (of 255) is a very dark shade
+# px across the lips (along the face): narrower lips are too small to render onto (a product a few pixels across). The
+# astronaut's, in a 512 px portrait, are 48.
+MIN_LIPS_WIDTH = 40
 
 _LIPS_POOLS: dict[tuple[int, int], tuple] = {}
 
@@ -118,15 +123,16 @@ class LipstickRenderer(ProductRenderer):
         return (f"material '{material.name}' does not use the 'VTO Lipstick' node group (add one with Add VTO "
                 "Lipstick Material)")
 
-    def tryon_view(self, photo, values, size, samples, seed):
-        from .tryon import tryon_view
+    @functools.cached_property
+    def photo_layer(self):
+        """The lips as the photo scene renders them (blender_addon.renderers.tryon): the lips mesh of the face mesh."""
+        from vto_core.photo.tryon import lips_mesh
 
-        return tryon_view(photo, values, size, samples, seed)
+        from .nodes_lipstick import GROUP_NAME, lipstick_material
+        from .scene_photo import PhotoLayer
 
-    def tryon(self, photo, values, crop, samples, seed):
-        from .tryon import tryon_lipstick
-
-        return tryon_lipstick(photo, values, crop=crop, samples=samples, seed=seed, in_place=True)
+        return PhotoLayer("Lips", "lipstick", GROUP_NAME, lipstick_material, "Bare Lips",
+                          lambda points, depth, region: lips_mesh(points, depth), MIN_LIPS_WIDTH)
 
     def is_dark(self, values):
         return max(values["red"], values["green"], values["blue"]) < DARK_LIPSTICK

@@ -91,15 +91,21 @@ class ProductRenderer:
         """The one line for a target that holds no group of the product (and how to add one)."""
         raise NotImplementedError
 
+    photo_layer = None  # its layer in the photo scene (blender_addon.renderers.scene_photo.PhotoLayer), with a try-on
+
     def tryon_view(self, photo: np.ndarray, values: dict[str, float], size: int, samples: int, seed: int):
-        """(the photo around the region, the product tried on it), each (size, size, 3); products with a try-on."""
-        raise VtoError(f"{self.product.name} has no try-on yet")
+        """(the photo around the regions, the product tried on them), each (size, size, 3); products with a try-on."""
+        from .tryon import tryon_view
+
+        return tryon_view(photo, values, size, samples, seed, self.product)
 
     def tryon(self, photo: np.ndarray, values: dict[str, float], crop: int | None, samples: int, seed: int
               ) -> np.ndarray:
         """The photo (H, W, 3) wearing `values` (with `crop` = n: the region framed as Match frames it, (n, n, 3));
         `photo` may be changed in place. Products with a try-on."""
-        raise VtoError(f"{self.product.name} has no try-on yet")
+        from .tryon import tryon_product
+
+        return tryon_product(self.product, photo, values, crop=crop, samples=samples, seed=seed, in_place=True)
 
     def is_dark(self, values: dict[str, float]) -> bool:
         """A very dark product (the evaluation's 'dark' bucket)."""

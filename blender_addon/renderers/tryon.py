@@ -1,10 +1,11 @@
-"""Render API of the lipstick on a photo: the "VTO Lipstick" group rendered onto a real portrait's lips (the paper's
-AR renderer, as a photo source).
+"""Render API of a product on a photo: the product's group rendered onto a real portrait's face regions (the lips; each
+eye's lid), the paper's AR renderer, as a photo source.
 
-The lips are found as Match finds them (vto_core.photo.lips_locator, on the shipped face models) and framed as Match
-frames them (vto_core.photo.framing.region_view). Cycles renders the photo lips scene (scene_photo) in that frame,
-bare and wearing the product, under the light read from the photo's skin; the photo times their ratio, inside the
-lips' soft mask, is the try-on (vto_core.photo.tryon.composite). Every pixel outside the soft mask is the photo's.
+The regions are found as Match finds them (vto_core.photo.photo_reader, on the shipped face models) and framed as Match
+frames them (vto_core.photo.framing.region_view). Cycles renders the product's photo scene (scene_photo, its layer
+declared by its Blender side) in that frame, bare and wearing the product, under the light read from the photo's skin;
+the photo times their ratio, inside the region's soft mask, is the try-on (vto_core.photo.tryon.composite). Every pixel
+outside the soft masks is the photo's.
 
 Shapes: images (H, W, 3) display sRGB in [0, 1]; frames n x n.
 """
@@ -21,23 +22,64 @@ from vto_core.colour import linear_to_srgb, srgb_to_linear
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.photo.face_reader import apply_matrix, clean_photo, polygon_mask, sample_bilinear
+from vto_core.photo.face_regions import region_mask, region_width
 from vto_core.photo.framing import region_view, square_view, view_box, view_cut
-from vto_core.photo.face_regions import region_mask
-from vto_core.photo.lips_locator import LIP_INNER, LIP_OUTER
 from vto_core.photo.photo_light import light_of
-from vto_core.photo.tryon import composite, feathered, lips_mesh, worn_over_bare
-from vto_core.products import get_spec
+from vto_core.photo.tryon import composite, feathered, worn_over_bare
+from vto_core.products import LIPS, FaceRegion, Product, get_product, get_spec
 
 from ..shipped import photo_reader
 from .cycles import configure_cycles, render_passes
-from .lipstick import set_lipstick_values
-from .scene_photo import build_photo_scene, set_light_and_lips, set_lips
+from .node_utils import set_group_values
+from .scene_photo import PhotoLayer, build_photo_scene, set_light_and_region, set_region
 
-# px between the mouth's corners: narrower lips are too small to render onto (a product a few pixels across). The
-# astronaut's, in a 512 px portrait, are 48.
-MIN_LIPS_WIDTH = 40
 MAX_RENDER = 160  # px: the frame is rendered at most this large; the ratio is smooth and sampled up to the photo
-EDGE = 3  # px around the lips' box: more than the soft mask reaches (vto_core.photo.tryon.feathered)
+EDGE = 3  # px around a region's box: more than the soft mask reaches (vto_core.photo.tryon.feathered)
+
+
+def photo_layer(product: Product | str) -> PhotoLayer:
+    """The photo scene's layer of `product` (its Blender side's photo_layer); VtoError for a product without one."""
+    from .products import blender_side
+
+    product = get_product(product) if isinstance(product, str) else product
+    layer = getattr(blender_side(product), "photo_layer", None)
+    if layer is None or not product.tryon:
+        raise VtoError(f"{product.name} has no try-on on a photo")
+    return layer
+
+
+def find_regions(photo: np.ndarray, product: Product) -> list[tuple[FaceRegion, object]]:
+    """Each face region of `product` the largest face of (H, W, 3) shows wide enough to render onto: [(region,
+    vto_core.photo.lips_locator.LipsFound), ...], its face_region first; VtoError 'no face found ...' where there is
+    none."""
+    try:
+        found, _ = photo_reader().locate_regions(product, photo)
+    except VtoError as exc:
+        if product.face_region != LIPS and "no face" not in str(exc):
+            raise
+        found = []
+    checked, problem = [], None
+    for region, where in found:
+        try:
+            checked.append((region, to_render(where, region, photo_layer(product))))
+        except VtoError as exc:
+            problem = problem or exc
+    if not checked:
+        raise problem or VtoError(f"no face found: the {product.label.lower()} is tried on the {product.region} of a "
+                                  "face; choose a portrait")
+    return checked
+
+
+def to_render(found, region: FaceRegion, layer: PhotoLayer):
+    """`found` (vto_core.photo.lips_locator.LipsFound, or None) where it is a face's region wide enough to render onto;
+    VtoError 'no face found ...' where not."""
+    if found is None or found.how != "face":
+        raise VtoError(f"no face found: the {layer.product} is tried on the {region.name} of a face; choose a portrait")
+    width = region_width(found.landmarks, region)
+    if width < layer.min_width:
+        raise VtoError(f"no face found with {region.name} wide enough to try on: the {region.name} are {width:.0f} px "
+                       f"wide, at least {layer.min_width:.0f} are needed; choose a larger photo or a closer portrait")
+    return found
 
 
 def find_lips(photo: np.ndarray):
@@ -47,91 +89,112 @@ def find_lips(photo: np.ndarray):
         lips = photo_reader().locate_lips(photo)
     except VtoError:
         lips = None
-    return lips_to_render(lips)
-
-
-def lips_to_render(lips):
-    """`lips` (vto_core.photo.lips_locator.LipsFound, or None) where they are a face's lips wide enough to render
-    onto; VtoError 'no face found ...' where not."""
-    if lips is None or lips.how != "face":
-        raise VtoError("no face found: the lipstick is tried on the lips of a face; choose a portrait")
-    outer = np.asarray(lips.outer, np.float64)
-    width = float(np.linalg.norm(outer[0] - outer[len(outer) // 2]))  # LIP_OUTER runs from one corner to the other
-    if width < MIN_LIPS_WIDTH:
-        raise VtoError(f"no face found with lips wide enough to try on: the lips are {width:.0f} px wide, at least "
-                       f"{MIN_LIPS_WIDTH} are needed; choose a larger photo or a closer portrait")
-    return lips
+    return to_render(lips, LIPS, photo_layer("lipstick"))
 
 
 @dataclass
-class PhotoLips:
-    """A portrait's lips ready to render onto: found, framed as Match frames them at n x n px, and its light read."""
+class PhotoRegion:
+    """A portrait's face region ready to render onto: found, framed as Match frames it at n x n px, its light read."""
 
     photo: np.ndarray  # (H, W, 3) display
-    lips: object  # vto_core.photo.lips_locator.LipsFound
+    lips: object  # vto_core.photo.lips_locator.LipsFound: the region found (the lips, a lid)
     cast: np.ndarray  # (3,) the photo's light colour, linear gains of mean 1
     n: int
     to_frame: np.ndarray  # (2, 3) photo px -> frame px
     points: np.ndarray  # (468, 2) the face mesh in frame px
     depth: np.ndarray | None  # (468,) in frame px, nearer lower
     frame: np.ndarray  # (n, n, 3) display: what the frame sees of the photo
-    mask: np.ndarray  # (n, n) the lips in the frame
+    mask: np.ndarray  # (n, n) the region in the frame
+    region: FaceRegion = LIPS
+    layer: PhotoLayer | None = None  # the product's layer (None: the lipstick's)
+
+    def __post_init__(self):
+        self.layer = self.layer or photo_layer("lipstick")
 
 
-def photo_lips(photo: np.ndarray, n: int | None = None, lips=None) -> PhotoLips:
-    """The lips of the largest face of (H, W, 3) display (or `lips`, found in it before), framed at n x n px (None:
-    the frame's own size, at most 2 x MAX_RENDER). VtoError 'no face found ...' (find_lips, lips_to_render)."""
-    photo = clean_photo(photo)  # no copy of a clean photo (a 64-megapixel one is 768 MB)
-    lips = find_lips(photo) if lips is None else lips_to_render(lips)
-    view, size, _ = region_view(lips)
+PhotoLips = PhotoRegion  # the lipstick's (the photo scene fit and the datasets name it so)
+
+
+def photo_region(photo: np.ndarray, found, region: FaceRegion, layer: PhotoLayer, n: int | None = None,
+                 light=None) -> PhotoRegion:
+    """A found face region (LipsFound, checked by to_render) of the photo (H, W, 3) display framed at n x n px (None:
+    the frame's own size, at most 2 x MAX_RENDER), the photo's light read beside the lips (`light`: read already)."""
+    view, size, _ = region_view(found, region)
     n = n or min(size, MAX_RENDER * 2)
     view = view.copy()
     view[:, :2] *= size / n  # the same frame seen at n x n
     to_frame = np.linalg.inv(np.vstack([view, [0.0, 0.0, 1.0]]))[:2]
-    points = apply_matrix(to_frame, lips.landmarks.astype(np.float64))
+    points = apply_matrix(to_frame, found.landmarks.astype(np.float64))
     photo_scale = np.sqrt(abs(np.linalg.det(view[:, :2])))  # photo px per frame px
-    depth = None if lips.depth is None else lips.depth / photo_scale
-    mask, _ = region_mask([points[LIP_OUTER], points[LIP_INNER]], n, n)
-    return PhotoLips(photo, lips, light_of(photo, lips.mask).cast, n, to_frame, points, depth,
-                     view_cut(photo, view, n), mask)
+    depth = None if found.depth is None else found.depth / photo_scale
+    mask, _ = region_mask([points[list(loop)] for loop in region.loops], n, n)
+    if light is None:
+        light = light_of(photo, photo_reader().light_mask((region, found), found.mask))
+    return PhotoRegion(photo, found, light.cast, n, to_frame, points, depth, view_cut(photo, view, n), mask, region,
+                       layer)
 
 
-def set_photo_lips(target: PhotoLips, samples: int, seed: int) -> bpy.types.Scene:
-    """The photo lips scene set to `target`'s lips, light and lip colour, rendering render_size(target) px."""
+def photo_lips(photo: np.ndarray, n: int | None = None, lips=None) -> PhotoRegion:
+    """The lips of the largest face of (H, W, 3) display (or `lips`, found in it before), framed at n x n px (None:
+    the frame's own size, at most 2 x MAX_RENDER). VtoError 'no face found ...' (find_lips, to_render)."""
+    photo = clean_photo(photo)  # no copy of a clean photo (a 64-megapixel one is 778 MB)
+    layer = photo_layer("lipstick")
+    lips = find_lips(photo) if lips is None else to_render(lips, LIPS, layer)
+    return photo_region(photo, lips, LIPS, layer, n)
+
+
+def photo_regions(photo: np.ndarray, product: Product, n: int | None = None) -> list[PhotoRegion]:
+    """Every face region of `product` on the largest face of (H, W, 3) display (find_regions), each framed at n x n
+    px (None: its own size), one light read for all."""
+    photo = clean_photo(photo)
+    layer = photo_layer(product)
+    found = find_regions(photo, product)
+    light = light_of(photo, photo_reader().light_mask(found[0], found[0][1].mask))
+    return [photo_region(photo, where, region, layer, n, light) for region, where in found]
+
+
+def set_photo_region(target: PhotoRegion, samples: int, seed: int) -> bpy.types.Scene:
+    """The layer's photo scene set to `target`'s region, light and colour, rendering render_size(target) px."""
     res = render_size(target)
     scale = res / target.n
-    scene = build_photo_scene()
-    vertices, quads, uvs = lips_mesh(target.points * scale, None if target.depth is None else target.depth * scale)
-    set_lips(scene, vertices, quads, uvs, res)
+    layer = target.layer
+    scene = build_photo_scene(layer)
+    vertices, quads, uvs = layer.mesh(target.points * scale, None if target.depth is None else target.depth * scale,
+                                      target.region)
+    set_region(scene, layer, vertices, quads, uvs, res)
     inside = target.mask > 0.5
     albedo = (srgb_to_linear(target.frame[inside]).mean(axis=0) / target.cast if inside.any() else np.full(3, 0.2))
     skin = skin_colour(target.frame, target.mask)
-    set_light_and_lips(scene, target.cast, albedo, (albedo if skin is None else skin) / target.cast)
+    set_light_and_region(scene, layer, target.cast, albedo, (albedo if skin is None else skin) / target.cast)
     configure_cycles(scene, res, samples, seed)
     return scene
 
 
-def render_size(target: PhotoLips) -> int:
+set_photo_lips = set_photo_region  # the lipstick's name (the photo scene fit)
+
+
+def render_size(target: PhotoRegion) -> int:
     """px a side of the render of `target`'s frame: its n, at most MAX_RENDER."""
     return min(target.n, MAX_RENDER)
 
 
-def render_look(scene: bpy.types.Scene, values: dict[str, float]) -> np.ndarray:
-    """The photo lips scene (set_photo_lips) wearing `values`: (res, res, 3) linear."""
-    set_lipstick_values(scene, values)
+def render_look(scene: bpy.types.Scene, values: dict[str, float], layer: PhotoLayer | None = None) -> np.ndarray:
+    """The layer's photo scene (set_photo_region; None: the lipstick's) wearing `values`: (res, res, 3) linear."""
+    layer = layer or photo_layer("lipstick")
+    set_group_values(scene, get_spec(layer.product), layer.group_name, values)
     return render_passes(scene)["Combined"][..., :3]
 
 
-def product_ratio(target: PhotoLips, values: dict[str, float], samples: int, seed: int,
+def product_ratio(target: PhotoRegion, values: dict[str, float], samples: int, seed: int,
                   bare: np.ndarray | None = None, bare_seed: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """What the product does to `target`'s lips: (worn / bare (n, n, 3) linear, the bare render (res, res, 3)). The
+    """What the product does to `target`'s region: (worn / bare (n, n, 3) linear, the bare render (res, res, 3)). The
     frame is rendered at render_size px, the smooth ratio sampled up to n; `bare`: a bare render of this target kept
     from before (None: rendered now, with `bare_seed`, or None: `seed`)."""
-    scene = set_photo_lips(target, samples, seed if bare_seed is None else bare_seed)
+    scene = set_photo_region(target, samples, seed if bare_seed is None else bare_seed)
     if bare is None:
-        bare = render_look(scene, {**values, "opacity": 0.0})
+        bare = render_look(scene, {**values, "opacity": 0.0}, target.layer)
     scene.cycles.seed = seed
-    ratio = worn_over_bare(bare, render_look(scene, values))
+    ratio = worn_over_bare(bare, render_look(scene, values, target.layer))
     res, size = ratio.shape[0], target.n
     if res == size:
         return ratio, bare
@@ -140,41 +203,66 @@ def product_ratio(target: PhotoLips, values: dict[str, float], samples: int, see
     return sample_bilinear(ratio, u, v).transpose(1, 2, 0), bare
 
 
-def tryon_lipstick(photo: np.ndarray, values: dict[str, float], crop: int | None = None,
-                   samples: int = DEFAULT_SAMPLES, seed: int = 0, in_place: bool = False) -> np.ndarray:
-    """R(X, g) on a real photo: (H, W, 3) display wearing the lipstick `values`, or, with `crop` = n, the lips
-    framed as Match frames them at n x n px. VtoError for a photo without a face, or lips too small. in_place: a
-    clean float32 photo (in [0, 1], finite) is drawn on itself, not on a copy (a 64-megapixel photo is 778 MB)."""
-    values = get_spec("lipstick").check_values(values)
-    target = photo_lips(photo, crop)
-    ratio, _ = product_ratio(target, values, samples, seed)
+def tryon_product(product: Product | str, photo: np.ndarray, values: dict[str, float], crop: int | None = None,
+                  samples: int = DEFAULT_SAMPLES, seed: int = 0, in_place: bool = False) -> np.ndarray:
+    """R(X, g) on a real photo: (H, W, 3) display wearing `product`'s `values` on each of its face regions, or, with
+    `crop` = n, its first region framed as Match frames it at n x n px. VtoError for a photo without a face, or
+    regions too small. in_place: a clean float32 photo (in [0, 1], finite) is drawn on itself, not on a copy (a
+    64-megapixel photo is 778 MB)."""
+    product = get_product(product) if isinstance(product, str) else product
+    values = product.spec.check_values(values)
+    targets = photo_regions(photo, product, crop)
     if crop:
+        target = targets[0]
+        ratio, _ = product_ratio(target, values, samples, seed)
         worn = composite(srgb_to_linear(target.frame), ratio, feathered(target.mask), values["opacity"])
         return np.clip(linear_to_srgb(worn), 0.0, 1.0).astype(np.float32)
-    return on_photo(target.photo, target.lips, target.to_frame, ratio, values["opacity"], in_place)
+    out = targets[0].photo
+    for k, target in enumerate(targets):
+        ratio, _ = product_ratio(target, values, samples, seed)
+        out = on_photo(out, target.lips, target.to_frame, ratio, values["opacity"], in_place or k > 0)
+    return out
+
+
+def tryon_lipstick(photo: np.ndarray, values: dict[str, float], crop: int | None = None,
+                   samples: int = DEFAULT_SAMPLES, seed: int = 0, in_place: bool = False) -> np.ndarray:
+    """tryon_product of the lipstick: (H, W, 3) display wearing `values`, or with `crop` = n its lips framed at n x n
+    px."""
+    return tryon_product("lipstick", photo, values, crop, samples, seed, in_place)
 
 
 def around_lips(lips, size: int) -> np.ndarray:
-    """The view (2, 3) of a size x size square on the photo's found lips and around them (2.2 lips widths across,
-    upright): what the previews show of a photo."""
-    outer = np.asarray(lips.outer, np.float64)
-    view, side = square_view((outer.min(axis=0) + outer.max(axis=0)) / 2, 2.2 * float(np.ptp(outer[:, 0])), 0.0)
+    """The view (2, 3) of a size x size square on a found region (the lips; an eye's lid) and around it (2.2 of its
+    widths across, upright): what the previews show of a photo."""
+    return around(np.asarray(lips.outer, np.float64), size)
+
+
+def around(points: np.ndarray, size: int) -> np.ndarray:
+    """The view (2, 3) of a size x size square upright on points (K, 2) of a photo, 2.2 of their widths across."""
+    view, side = square_view((points.min(axis=0) + points.max(axis=0)) / 2, 2.2 * float(np.ptp(points[:, 0])), 0.0)
     view[:, :2] *= side / size
     return view
 
 
+def region_pixels_mask(found, x0: int, y0: int, width: int, height: int) -> np.ndarray:
+    """(height, width) bool: the pixels of the box inside `found`'s outer loop and outside its inner one (if any)."""
+    mask = polygon_mask(np.asarray(found.outer), x0, y0, width, height)
+    if len(found.inner) >= 3:
+        mask &= ~polygon_mask(np.asarray(found.inner), x0, y0, width, height)
+    return mask
+
+
 def on_photo(photo: np.ndarray, lips, to_frame: np.ndarray, ratio: np.ndarray, opacity: float,
              in_place: bool = False, window: tuple[int, int, int, int] | None = None) -> np.ndarray:
-    """The photo with the frame's product ratio (n, n, 3) applied inside its lips' soft mask (to_frame (2, 3): photo
-    pixels to the frame's); every other pixel is the photo's own, unchanged. in_place: drawn on `photo` itself.
-    window (x0, y0, x1, y1): only that part of the photo, drawn on a copy of it (it holds the lips' box and EDGE px
-    around it): a 64-megapixel portrait costs its part, not a whole copy."""
+    """The photo with the frame's product ratio (n, n, 3) applied inside a found region's soft mask (`lips`: the lips,
+    a lid; to_frame (2, 3): photo pixels to the frame's); every other pixel is the photo's own, unchanged. in_place:
+    drawn on `photo` itself. window (x0, y0, x1, y1): only that part of the photo, drawn on a copy of it (it holds the
+    region's box and EDGE px around it): a 64-megapixel portrait costs its part, not a whole copy."""
     x, y, w, h = lips.box
     height, width = photo.shape[:2]
     x0, y0 = max(0, x - EDGE), max(0, y - EDGE)
     x1, y1 = min(width, x + w + EDGE), min(height, y + h + EDGE)
-    inner = polygon_mask(np.asarray(lips.inner), x0, y0, x1 - x0, y1 - y0)
-    mask = polygon_mask(np.asarray(lips.outer), x0, y0, x1 - x0, y1 - y0) & ~inner
+    mask = region_pixels_mask(lips, x0, y0, x1 - x0, y1 - y0)
     xs, ys = np.meshgrid(np.arange(x0, x1) + 0.5, np.arange(y0, y1) + 0.5)
     u = to_frame[0, 0] * xs + to_frame[0, 1] * ys + to_frame[0, 2]
     v = to_frame[1, 0] * xs + to_frame[1, 1] * ys + to_frame[1, 2]
@@ -190,23 +278,41 @@ def on_photo(photo: np.ndarray, lips, to_frame: np.ndarray, ratio: np.ndarray, o
     return out
 
 
-def tryon_view(photo: np.ndarray, values: dict[str, float], size: int, samples: int, seed: int
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """What the previews show of a lipstick tried on a portrait (H, W, 3): (the photo around its lips, the same
-    square wearing `values`), each (size, size, 3), framed by around_lips: tryon_lipstick's try-on, drawn only on
-    the part of the photo the square shows. VtoError 'no face found ...' where it has no face, or its lips are too
-    small."""
-    values = get_spec("lipstick").check_values(values)
-    target = photo_lips(photo)
-    ratio, _ = product_ratio(target, values, samples, seed)
-    view = around_lips(target.lips, size)
-    height, width = target.photo.shape[:2]
+def tryon_view(photo: np.ndarray, values: dict[str, float], size: int, samples: int, seed: int,
+               product: Product | str = "lipstick") -> tuple[np.ndarray, np.ndarray]:
+    """What the previews show of a product tried on a portrait (H, W, 3): (the photo around its regions, the same
+    square wearing `values`), each (size, size, 3), framed by `around` all the regions found (the lips; both eyes):
+    tryon_product's try-on, drawn only on the part of the photo the square shows. VtoError 'no face found ...' where it
+    has no face, or its regions are too small."""
+    product = get_product(product) if isinstance(product, str) else product
+    values = product.spec.check_values(values)
+    targets = photo_regions(photo, product)
+    view = around(np.concatenate([np.asarray(t.lips.outer, np.float64) for t in targets]), size)
+    photo = targets[0].photo
+    height, width = photo.shape[:2]
     x, y, w, h = view_box(view, size, (height, width))
-    lx, ly, lw, lh = target.lips.box
-    # the part of the photo that view_cut reads (a pixel more each way) and on_photo draws on (EDGE around the lips)
-    x0, y0 = max(0, min(x - 1, lx - EDGE)), max(0, min(y - 1, ly - EDGE))
-    x1, y1 = min(width, max(x + w + 1, lx + lw + EDGE)), min(height, max(y + h + 1, ly + lh + EDGE))
-    worn = on_photo(target.photo, target.lips, target.to_frame, ratio, values["opacity"], window=(x0, y0, x1, y1))
-    shifted = view.copy()
-    shifted[:, 2] -= (x0, y0)
-    return view_cut(target.photo, view, size), view_cut(worn, shifted, size)
+    boxes = [t.lips.box for t in targets]
+    # the part of the photo that view_cut reads (a pixel more each way) and on_photo draws on (EDGE around each region)
+    x0 = max(0, min([x - 1] + [bx - EDGE for bx, _, _, _ in boxes]))
+    y0 = max(0, min([y - 1] + [by - EDGE for _, by, _, _ in boxes]))
+    x1 = min(width, max([x + w + 1] + [bx + bw + EDGE for bx, _, bw, _ in boxes]))
+    y1 = min(height, max([y + h + 1] + [by + bh + EDGE for _, by, _, bh in boxes]))
+    worn = photo[y0:y1, x0:x1].copy()
+    for target in targets:
+        ratio, _ = product_ratio(target, values, samples, seed)
+        shifted_frame = target.to_frame.copy()
+        shifted_frame[:, 2] += target.to_frame[:, :2] @ np.array([x0, y0], np.float64)
+        worn = on_photo(worn, shifted(target.lips, -x0, -y0), shifted_frame, ratio, values["opacity"], in_place=True)
+    moved = view.copy()
+    moved[:, 2] -= (x0, y0)
+    return view_cut(photo, view, size), view_cut(worn, moved, size)
+
+
+def shifted(found, dx: float, dy: float):
+    """A found region (LipsFound) moved by (dx, dy) px: its loops and box (the rest as it was)."""
+    import dataclasses
+
+    offset = np.array([dx, dy], np.float32)
+    x, y, w, h = found.box
+    return dataclasses.replace(found, box=(int(x + dx), int(y + dy), w, h), outer=np.asarray(found.outer) + offset,
+                               inner=np.asarray(found.inner) + offset if len(found.inner) else found.inner)

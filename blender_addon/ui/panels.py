@@ -35,7 +35,7 @@ def draw_reference(column, props, preview_name: str, product: Product) -> None:
     if icon_id:
         column.template_icon(icon_value=icon_id, scale=THUMBNAIL_SCALE)
     if why and why != "no image chosen":
-        icon = "INFO" if icon_id and not why.startswith(("no lips", "no hair")) else "ERROR"
+        icon = "INFO" if icon_id and not why.startswith(f"no {product.region}") else "ERROR"
         for line in why.split("; "):  # one line a note: what was found, then the light read
             column.label(text=line, icon=icon)
             icon = "BLANK1"
@@ -45,9 +45,6 @@ def draw_reference(column, props, preview_name: str, product: Product) -> None:
         for index, name in enumerate(("X", "Y", "Width", "Height")):
             box.prop(props, "crop", index=index, text=name)
     column.prop(props, "mask_path", text="Mask")
-    if not product.finds_region:  # its region is not found in a whole photo yet: the photo is framed on it
-        column.label(text=f"The photo is read as framed on the {product.region}", icon="INFO")
-        return
     row = column.row()
     row.active = not props.mask_path and not (product.face_region is None and props.use_crop)  # these say where it is
     row.prop(props, "find_region", text=f"Find {product.region.title()}")

@@ -11,6 +11,7 @@ from vto_core.errors import VtoError
 from vto_core.photo.face_reader import apply_matrix
 from vto_core.photo.framing import region_view
 from vto_core.photo.photo_reader import crop_box, load_reference
+from vto_core.products import LIPS
 
 from ..matching.reference import absolute_path, datablock_pixels, read_mask
 from ..shipped import photo_reader
@@ -37,8 +38,8 @@ def source_key(props, product) -> tuple:
         source = ("datablock", image.name if image else "", image.is_dirty if image else False)
     else:
         source = ("file",) + stamp(props.image_path)
-    # a face-mesh region is found inside the crop; the hair is found only in the whole photo; some not yet at all
-    finding = (find_region(props) and product.finds_region and not props.mask_path
+    # a face-mesh region is found inside the crop; the hair is found only in the whole photo
+    finding = (find_region(props) and not props.mask_path
                and not (product.face_region is None and props.use_crop))
     return source, tuple(round(v, 4) for v in props.crop) if props.use_crop else None, stamp(props.mask_path), finding
 
@@ -58,10 +59,11 @@ def outline(canvas: np.ndarray, points: np.ndarray, colour, width: int = 2) -> N
         canvas[y, x, :3] = colour
 
 
-def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None, hair=None) -> np.ndarray:
+def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None, hair=None, regions=()) -> np.ndarray:
     """(SIZE, SIZE, 4) RGBA, top row first: the reference fitted and centred on grey, the mask dimmed, the crop drawn,
-    the lips found (vto_core.photo.lips_locator.LipsFound: their outer and inner contours, and the frame the encoder
-    reads) and the hair found (vto_core.photo.hair_locator.HairFound: its outline)."""
+    the face regions found (`regions`: [(FaceRegion, LipsFound)], both eyes' lids; or `lips` alone: their outer
+    contours, and the frame the encoder reads of each) and the hair found (vto_core.photo.hair_locator.HairFound: its
+    outline)."""
     from vto_core.imageio import resize
 
     height, width = reference.shape[:2]
@@ -78,16 +80,18 @@ def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None, hai
         small = resize(hair.mask[..., None].repeat(3, axis=2), h, w)[..., 0] > 0.5
         edge = small & ~(np.roll(small, 1, 0) & np.roll(small, -1, 0) & np.roll(small, 1, 1) & np.roll(small, -1, 1))
         canvas[top:top + h, left:left + w, :3][edge] = HAIR_COLOUR
-    if lips is not None:  # the outer contour: at thumbnail size a mouth is a few pixels, the inner one would fill it
-        outline(canvas, np.asarray(lips.outer, np.float64) * scale + (left, top), LIPS_COLOUR, width=1)
-        if lips.how == "face":  # the frame the encoder reads, turned with a tilted face, on the photo as shown
-            view, size, turn = region_view(lips)
+    frames = []
+    for region, found in list(regions) or ([(LIPS, lips)] if lips is not None else []):
+        # the outer contour: at thumbnail size a mouth is a few pixels, the inner one would fill it
+        outline(canvas, np.asarray(found.outer, np.float64) * scale + (left, top), LIPS_COLOUR, width=1)
+        if found.how == "face":  # the frame the encoder reads, turned with a tilted face, on the photo as shown
+            view, size, turn = region_view(found, region)
             if turn:
                 corners = apply_matrix(view, np.array([[0, 0], [size, 0], [size, size], [0, size]], np.float64))
                 outline(canvas, corners * scale + (left, top), CROP_COLOUR)
             else:
-                crop = (int(view[0, 2]), int(view[1, 2]), size, size)
-    if crop is not None:
+                frames.append((int(view[0, 2]), int(view[1, 2]), size, size))
+    for crop in ([crop] if crop is not None else []) + frames:
         x, y, cw, ch = crop_box(crop, width, height)
         x0, y0 = left + int(x * scale), top + int(y * scale)
         x1, y1 = left + min(w, round((x + cw) * scale)) - 1, top + min(h, round((y + ch) * scale)) - 1
@@ -120,14 +124,14 @@ def icon(props, name: str, product) -> tuple[int, str]:
         reference = reference_pixels(props)
         mask = read_mask(props.mask_path, reference.shape[:2]) if props.mask_path else None
         crop = tuple(props.crop) if props.use_crop else None
-        lips, hair, note = None, None, ""
+        regions, hair, note = [], None, ""
         if key[-1]:
             try:  # as Match will find them
                 found = photo_reader().region_reference(product, reference, crop)
-                lips, hair, note = found.lips, found.hair, "; ".join(found.notes)
+                regions, hair, note = found.regions, found.hair, "; ".join(found.notes)
             except VtoError as exc:
                 note = str(exc)
-        rgba = compose(reference, crop, mask, lips, hair)
+        rgba = compose(reference, crop, mask, hair=hair, regions=regions)
     except Exception as exc:  # VtoError, or anything a broken file raises: the thumbnail only says why
         _made[name] = (key, 0, (str(exc).splitlines() or [""])[0])
         return 0, _made[name][2]

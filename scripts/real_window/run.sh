@@ -1,8 +1,8 @@
 #!/bin/bash
 # The extension in a real Blender window: Debian trixie's Blender 4.3.2 (Python 3.13) under Xvfb, in a chroot.
 # Builds the linux-x64 zip, installs it from disk as an artist does (no hand edits), opens a .blend with a lips
-# material, presses Match (Fast, then Better) in the Material tab on a whole portrait and Match (Fast, then Better) in the
-# Compositor's sidebar on a patch of hair, with real X11 clicks (xdotool), undoes with a real ctrl+z, and saves
+# material, presses Match (Fast, then Better) in the Material tab on a whole portrait, Match (Fast) on an eye-shadow
+# material with the portrait wearing eye shadow, and Match (Fast, then Better) in the Compositor's sidebar on the hair, with real X11 clicks (xdotool), undoes with a real ctrl+z, and saves
 # screenshots and result.json in OUT.   Needs root (chroot, mounts).
 #   usage: bash scripts/real_window/run.sh [OUT]     (default /work/cache/real-blender/out; about 3 min with the
 #          chroot made by setup_chroot.sh, which this runs first: about 3 min and 1.5 GB the first time)
@@ -36,6 +36,9 @@ from PIL import Image
 from skimage import data
 Image.fromarray(data.astronaut()).save(sys.argv[1])
 PYEOF
+# The eye-shadow reference: the same portrait wearing Royal Purple on both lids (`vto tryon eyeshadow`, Cycles here).
+"$PROJECT/.venv/bin/vto" tryon eyeshadow --image "$P/astronaut.png" --params "Royal Purple" --out "$P/eyes.png" \
+    > "$OUT/tryon.log" 2>&1 || { tail -5 "$OUT/tryon.log"; exit 3; }
 cp "$HERE/stage1_install.py" "$HERE/stage2_gui.py" "$P/"
 
 # 1. blender -b: install from disk into a fresh user folder, save the preferences, save lips.blend.
@@ -46,14 +49,15 @@ chroot "$R" env HOME=/$PN BLENDER_USER_RESOURCES=/$PN/user blender -b --factory-
 #    (exit 4) OUT still gets what stage 2 wrote: result.json up to the step it reached, and the screenshots.
 chroot "$R" env HOME=/$PN BLENDER_USER_RESOURCES=/$PN/user timeout 480 \
     xvfb-run -a -s "-screen 0 1600x1000x24" blender /$PN/lips.blend --python-exit-code 3 \
-    --python /$PN/stage2_gui.py -- /$PN/astronaut.png /$PN/astronaut.png /$PN/out \
+    --python /$PN/stage2_gui.py -- /$PN/astronaut.png /$PN/astronaut.png /$PN/out /$PN/eyes.png \
     > "$OUT/stage2.log" 2>&1 || { cp "$P"/out/* "$OUT/" 2>/dev/null; tail -30 "$OUT/stage2.log"; exit 4; }
 cp "$P"/out/* "$OUT/"
 grep -h "^RESULT\|^STEP" "$OUT/stage1.log" "$OUT/stage2.log" | cut -c1-200
 ls "$OUT"/result.json
 if [ "${VTO_UPDATE_DOCS:-0}" = 1 ]; then
     for pair in lips_before:panel_before_match lips_after:panel_after_match lips_better:panel_after_better \
-                hair_better:panel_hair_after_better hair_after:panel_hair_after_match; do
+                hair_better:panel_hair_after_better hair_after:panel_hair_after_match \
+                eyes_matched:panel_eyeshadow_after_match; do
         cp "$OUT/${pair%%:*}_panel.png" "$PROJECT/docs/${pair#*:}.png"
     done
 fi

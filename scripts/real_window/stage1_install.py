@@ -1,5 +1,6 @@
 """Stage 1 (blender -b): install the extension zip from disk, save the preferences, save a .blend whose Cube has a
-VTO Lipstick material and whose compositor has the VTO hair groups (both made by the add-on's own operators)."""
+VTO Lipstick material, whose plane "Lid" has a VTO Eye Shadow material and whose compositor has the VTO hair groups (all
+made by the add-on's own operators)."""
 import json
 import sys
 
@@ -21,6 +22,10 @@ cube = bpy.data.objects["Cube"]
 bpy.context.view_layer.objects.active = cube
 cube.select_set(True)
 result["add_material"] = sorted(bpy.ops.vto.add_lipstick_material())
+bpy.ops.mesh.primitive_plane_add(location=(0.0, 3.0, 0.0))
+bpy.context.object.name = "Lid"
+result["add_eyeshadow"] = sorted(bpy.ops.vto.add_material(product="eyeshadow"))
+bpy.context.view_layer.objects.active = cube
 result["add_hair"] = sorted(bpy.ops.vto.add_hair_compositor())
 bpy.ops.wm.save_as_mainfile(filepath=blend_out)
 print("RESULT stage1 " + json.dumps(result))

@@ -4,7 +4,8 @@ OUT/result.json (written as it goes, so a run that stops still tells how far it 
 the window draws and handles the events in between.
 
 Lips: a whole portrait (the add-on finds the lips and reads the photo's light from her skin), Match (Fast) clicked,
-undone, clicked twice more; the panel offers lips no other quality and says why. Hair: a patch of the portrait's
+undone, clicked twice more, then Better. Eye shadow: the plane "Lid" made active, a whole portrait wearing eye shadow
+(the add-on finds both eyes' lids), Match (Fast) clicked, its Preview on Photo, undone, clicked again. Hair: a patch of the portrait's
 hair, Match (Fast), undone; then Better chosen in the sidebar's Quality row (a real click on its button) and Match
 clicked: the modal fit runs. A main loop stalled for STALL_S seconds dumps every thread's Python stack into the log
 and exits."""
@@ -19,7 +20,7 @@ import traceback
 
 import bpy
 
-LIPS_REF, HAIR_REF, OUT = sys.argv[sys.argv.index("--") + 1:][:3]
+LIPS_REF, HAIR_REF, OUT, EYES_REF = sys.argv[sys.argv.index("--") + 1:][:4]
 RESULT = {"python": sys.version.split()[0], "blender": bpy.app.version_string, "errors": [], "notes": []}
 T0 = time.time()
 STALL_S = 90  # Blender's main loop stalled this long (no timer tick): dump every thread's Python stack and exit
@@ -72,6 +73,12 @@ def lips_inputs():
     material = bpy.data.objects["Cube"].active_material
     (group,) = [n for n in material.node_tree.nodes if getattr(n, "node_tree", None)
                 and n.node_tree.name.startswith("VTO Lipstick")]
+    return {s.name: round(float(s.default_value), 5) for s in group.inputs if s.type == "VALUE"}
+
+
+def eyes_inputs():
+    (group,) = [n for n in eyes_material().node_tree.nodes if getattr(n, "node_tree", None)
+                and n.node_tree.name.startswith("VTO Eye Shadow")]
     return {s.name: round(float(s.default_value), 5) for s in group.inputs if s.type == "VALUE"}
 
 
@@ -321,6 +328,31 @@ def lips_props():
     return lips_material().vto_match
 
 
+def eyes_material():
+    return bpy.data.objects["Lid"].active_material
+
+
+def eyes_props():
+    return eyes_material().vto_match
+
+
+def eyes_found(path):
+    """Both eyes' lids the add-on finds in the reference: their boxes, and the notes."""
+    reference = extension("matching.reference").read_reference("eyeshadow", {"image_path": path})
+    return {"boxes": [[int(v) for v in found.box] for _, found in reference.regions], "views": len(reference.images),
+            "notes": list(reference.notes)}
+
+
+def make_active(obj, area):
+    """`obj` the active object, and the Properties editor `area` pinned to it (a timer's change of the active object
+    sends the editor no notifier: it went on showing the Cube's material)."""
+    bpy.context.view_layer.objects.active = obj
+    obj.select_set(True)
+    space = area.spaces.active
+    space.pin_id = obj
+    space.use_pin_id = True
+
+
 def hair_props():
     return bpy.context.scene.vto_hair_match
 
@@ -404,6 +436,41 @@ def script():
         yield 0.5
         yield from click_better(lips, lips_props, lips_inputs, "lips", region_of(props_area))
 
+    # Eye shadow: the plane "Lid" made active (its VTO Eye Shadow material in the Material tab), a portrait wearing it.
+    yield from retrying(lambda: make_active(bpy.data.objects["Lid"], props_area))
+    yield from retrying(lambda: setattr(eyes_props(), "image_path", bpy.path.relpath(EYES_REF)))
+    with bpy.context.temp_override(window=win, area=props_area):
+        bpy.ops.ed.undo_push(message="Eye shadow reference")
+    props_area.tag_redraw()
+    yield 4.0
+    x, y = yield from button_when_drawn(props_area, "eyes_before")
+    eyes_defaults = eyes_inputs()
+    xdo("mousemove", x, y)
+    yield 0.5
+    eyes_first, eyes_ms = yield from click_match(eyes_props, eyes_inputs, "eyes click 1")
+    yield 1.0
+    x, y = yield from button_when_drawn(props_area, "eyes_after")
+    shown = extension("ui.preview").shown(eyes_material())
+    eyes = RESULT["eyes"] = {"defaults": eyes_defaults, "first": eyes_first,
+                             "preview_after_match": {"icon": int(shown[0]), "note": shown[1]},
+                             "estimate": eyes_props().last_estimate, "quality_label": quality_label(eyes_props(),
+                                                                                                    "eyeshadow")}
+    yield from undo()
+    eyes["undone"] = eyes_inputs()
+    x, y = yield from button_when_drawn(props_area, "eyes_undone", settled=True)
+    xdo("mousemove", x, y)
+    yield 0.5
+    eyes["second"], second_ms = yield from click_match(eyes_props, eyes_inputs, "eyes click 2")
+    yield 0.3
+    eyes["third"], third_ms = yield from click_match(eyes_props, eyes_inputs, "eyes click 3")
+    eyes["ms"] = [eyes_ms, second_ms, third_ms]
+    yield 1.0
+    grab("eyes_matched", region_of(props_area))
+    try:
+        eyes["found"] = eyes_found(EYES_REF)
+    except Exception as exc:  # noqa: BLE001  (recorded, not fatal: the screenshots show the outlines)
+        RESULT["errors"].append(f"eyes found: {type(exc).__name__}: {exc}")
+
     # The hair stage: the 3D viewport becomes the Compositor, its sidebar on the VTO tab.
     view = area_of("VIEW_3D")
     view.ui_type = "CompositorNodeTree"
@@ -469,7 +536,7 @@ def tick():
         RESULT["errors"].append(traceback.format_exc())
         traceback.print_exc()
     save()
-    shown = {k: v for k, v in RESULT.items() if k in ("lips", "hair", "errors", "notes")}
+    shown = {k: v for k, v in RESULT.items() if k in ("lips", "eyes", "hair", "errors", "notes")}
     print("RESULT stage2 " + json.dumps(shown)[:4000])
     sys.stdout.flush()
     os._exit(0)  # quit_blender from a timer may refuse ("drawing/rendering"); nothing is left to save

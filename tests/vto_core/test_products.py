@@ -93,11 +93,12 @@ def test_the_static_check_sees_a_comparison():
     assert name_comparisons('if product.face_region is None:\n    pass\n') == []
 
 
-def test_eye_shadow_is_a_material_on_one_eyes_lid():
+def test_eye_shadow_is_a_material_on_both_eyes_lids():
     assert EYESHADOW.is_material and EYESHADOW.face_region is EYELIDS and EYESHADOW.region == "eyelids"
-    assert not (EYESHADOW.tryon or EYESHADOW.fits_in_photo_scene or EYESHADOW.photo_datasets)  # photos: next issue
+    assert EYESHADOW.face_regions == (EYELIDS, LEFT_EYELID) and LIPSTICK.face_regions == (LIPSTICK.face_region,)
+    assert HAIR.face_regions == () and LEFT_EYELID.mirrored and not EYELIDS.mirrored  # the left eye is read flipped
+    assert EYESHADOW.tryon and EYESHADOW.photo_datasets and not EYESHADOW.fits_in_photo_scene  # Better/Best: not yet
     assert EYESHADOW.fit.offered == ("FAST",) and EYESHADOW.photo_values({"red": 9.0}) == {"red": 9.0}
-    assert not EYESHADOW.finds_region and LIPSTICK.finds_region and HAIR.finds_region  # a photo of one eye, framed
     assert EYESHADOW.asset_library and not EYESHADOW.no_library  # its presets are materials, as the lipstick's
     assert 0.5 < EYELIDS.frame_share < 1.0 and EYELIDS.frame_share == LEFT_EYELID.frame_share
     right, left = EYELIDS.loops[0], LEFT_EYELID.loops[0]
@@ -105,6 +106,8 @@ def test_eye_shadow_is_a_material_on_one_eyes_lid():
     assert right[:9] == (33, 246, 161, 160, 159, 158, 157, 173, 133)  # the lid margin, outer corner to inner
     assert left[:9] == (263, 466, 388, 387, 386, 385, 384, 398, 362)
     assert {65, 52, 53, 46, 124, 35} <= set(right) and {295, 282, 283, 276, 353, 265} <= set(left)  # the brow's edge
+    assert EYELIDS.opening[:9] == right[:9] and LEFT_EYELID.opening[:9] == left[:9]  # the opening: margins, upper first
+    assert EYELIDS.min_width == LEFT_EYELID.min_width > 0 and LIPSTICK.face_region.opening == ()
 
 
 EYESHADOW_PRESETS = load_presets("eyeshadow")

@@ -115,6 +115,25 @@ class Reference:
     light: object = None
     hair: object = None  # vto_core.photo.hair_locator.HairFound where the hair was found in a portrait
     turn: float = 0.0  # radians, clockwise: how far `image` is turned from the photo (the face's roll), 0 on the grid
+    views: list = field(default_factory=list)  # (h, w, 3) each: the product's other places (the other eye), framed alike
+    regions: list = field(default_factory=list)  # [(FaceRegion, LipsFound), ...]: each face region read, `lips` first
+
+    @property
+    def images(self) -> list[np.ndarray]:
+        """Every view the encoder reads of the product: `image`, then `views` (its estimate is their mean)."""
+        return [self.image, *self.views]
+
+
+def framed(whole: np.ndarray, found, region: FaceRegion, light) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, float]:
+    """A found face region of `whole` (H, W, 3) framed as its default scene frames it, the photo's `light` taken out:
+    (image (n, n, 3), its region mask (n, n), view (2, 3), n, turn rad); flipped left to right where the region is
+    read mirrored (the other eye)."""
+    view, size, turn = region_view(found, region)
+    image = view_cut(whole, view, size, light)
+    mask = (view_cut(found.mask, view, size)[..., 0] > 0.5).astype(np.float32)
+    if region.mirrored:
+        image, mask = np.ascontiguousarray(image[:, ::-1]), np.ascontiguousarray(mask[:, ::-1])
+    return image, mask, view, size, turn
 
 
 def turn_note(angle: float) -> list[str]:
@@ -196,15 +215,20 @@ class PhotoReader:
     def locate_region(self, region: FaceRegion, image: np.ndarray, face=None):
         """A face-mesh region of (H, W, 3) (a LipsFound: its mask, box and loops), from `face` where it was read
         already. The lips by their own locator (a close-up of lips without a face too); any other region by its loops
-        on the face mesh. VtoError 'no ... found' where there is none."""
+        on the face mesh, where the photo shows it (face_regions.unseen_reason). VtoError 'no ... found' where there is
+        none."""
         if region == LIPS:
             return self.locate_lips(image, face)
-        from .face_regions import region_mask, region_polygons
+        from .face_regions import region_mask, region_polygons, unseen_reason
         from .lips_locator import LipsFound
 
         face = cached_reader(self.detector, self.landmarks).read(image) if face is None else face
         if face is None:
             raise VtoError(f"no {region.name} found: no face in the image; crop the face or give a mask")
+        unseen = unseen_reason(image, face.landmarks, region)
+        if unseen:
+            raise VtoError(f"no {region.name} found: {'they are' if region.name.endswith('s') else 'it is'} {unseen}; "
+                           "choose a closer portrait that shows them, or crop one")
         polygons = region_polygons(face.landmarks, region)
         mask, box = region_mask(polygons, *image.shape[:2])
         if not box[2]:
@@ -214,51 +238,91 @@ class PhotoReader:
         return LipsFound(mask, box, polygons[0], inner, "face", face.faces, face.score, face.note, face.landmarks,
                          face.box, face.depth)
 
+    def locate_regions(self, product, image: np.ndarray, face=None) -> tuple[list, list[str]]:
+        """Each of `product`'s face regions (face_regions: the right eye's lid, then the left's) the photo (H, W, 3)
+        shows: ([(region, LipsFound), ...] in that order, notes on those it does not show). VtoError (the first
+        region's) where it shows none."""
+        found, problems = [], []
+        for region in product.face_regions:
+            try:
+                found.append((region, self.locate_region(region, image, face)))
+            except VtoError as exc:
+                problems.append(exc)
+        if not found:
+            raise problems[0]
+        notes = [f"{len(problems)} of {len(product.face_regions)} {product.region} not read: "
+                 f"{str(problems[0]).split(': ', 1)[-1]}"] if problems else []
+        return found, notes
+
     def face_region_reference(self, product, whole: np.ndarray, crop=None, mask: np.ndarray | None = None,
                               find: bool = True, neutral_light: bool = True) -> Reference:
-        """The face-mesh region of `product` (its face_region: the lips) in a photo, framed for the encoder: a crop, a
-        mask (framed by region_frame), or, with neither, the region the locator finds (framed likewise). find=False
-        takes the whole image (or the crop) as it is. A crop in which the locator finds no lips is taken as the artist
-        drew it: the lips where the default scene frames them.
-        neutral_light: where the region is known, the photo's light is read from the skin beside it and taken out
-        (vto_core.photo.photo_light), so the estimate is of the product, not of the light it was photographed in."""
+        """The face-mesh region of `product` (its face_region: the lips, an eye's lid) in a photo, framed for the
+        encoder: a crop, a mask (framed by region_frame), or, with neither, the region the locator finds (framed
+        likewise; a product worn in several places, each eye, is read in each: the first is `image`, the others
+        `views`, each turned as the default scene shows the first). find=False takes the whole image (or the crop) as
+        it is. A crop in which the locator finds no lips is taken as the artist drew it: the lips where the default
+        scene frames them.
+        neutral_light: where the region is known, the photo's light is read from the skin beside the lips (of the
+        face found, else beside the region: vto_core.photo.photo_light) and taken out, so the estimate is of the
+        product, not of the light it was photographed in."""
         region = product.face_region
         facts = self.photo_facts(whole)
         refuse_monochrome(whole, product.name, facts=facts)
         height, width = whole.shape[:2]
         box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
-        notes, lips = [], None
+        notes, found = [], []
         if mask is None and find:
             try:
                 face = self.face_of(whole, facts) if crop is None else None
-                lips = self.locate_region(region, cut(whole, box), face)
+                found, missing = self.locate_regions(product, cut(whole, box), face)
+                notes += missing
             except VtoError:
-                if crop is None or region != LIPS:
+                if crop is None:
                     raise
-                from .lips_locator import DEFAULT_LENS, close_up
+                if region == LIPS:
+                    from .lips_locator import DEFAULT_LENS, close_up
 
-                lips = close_up((box[3], box[2]), DEFAULT_LENS, 0.0, "no lips found in the crop: the crop is taken as "
-                                "the lips, framed as the default scene frames them")
-            lips = in_whole(lips, box, (height, width))
-            mask = lips.mask
-            notes += [lips.note] if lips.note else []
+                    found = [(region, close_up((box[3], box[2]), DEFAULT_LENS, 0.0, "no lips found in the crop: the "
+                                               "crop is taken as the lips, framed as the default scene frames them"))]
+                else:  # a crop of one eye: as the artist framed it
+                    notes.append(f"no {region.name} found in the crop: the crop is read as framed on them")
+            found = [(where, in_whole(lips, box, (height, width))) for where, lips in found]
+            if found:
+                region, lips = found[0]
+                mask = lips.mask
+                notes += [lips.note] if lips.note else []
         light = None
         if neutral_light and mask is not None:
-            light = light_of(whole, mask)
+            light = light_of(whole, self.light_mask(found[0] if found else None, mask))
             notes.append(light.describe())
-        if crop is None and lips is not None:
-            view, size, turn = region_view(lips, region)
+        if crop is None and found:
+            views = [framed(whole, lips, where, light) for where, lips in found]
+            image, framed_mask, view, size, turn = views[0]
+            others = [other[0] for other in views[1:]]
             if turn:  # a tilted head: the region framed along the face's own axes, turned upright
-                image = view_cut(whole, view, size, light)
-                framed_mask = (view_cut(mask, view, size)[..., 0] > 0.5).astype(np.float32)
-                return Reference(image, (image, framed_mask), whole, view_box(view, size, mask.shape), lips,
-                                 notes + turn_note(turn), light, turn=turn)
-            box = (int(view[0, 2]), int(view[1, 2]), size, size)  # region_frame of the region found
-        elif crop is None and mask is not None:
+                return Reference(image, (image, framed_mask), whole, view_box(view, size, mask.shape), found[0][1],
+                                 notes + turn_note(turn), light, turn=turn, views=others, regions=found)
+            return Reference(image, (image, framed_mask), whole, (int(view[0, 2]), int(view[1, 2]), size, size),
+                             found[0][1], notes, light, views=others, regions=found)
+        if crop is None and mask is not None:
             box = region_frame(mask, region.frame_share)
         image = cut_read(whole, box, light)
-        region = None if mask is None else (image, cut(mask, box))
-        return Reference(image, region, whole, box, lips, notes, light)
+        framed_region = None if mask is None else (image, cut(mask, box))
+        return Reference(image, framed_region, whole, box, found[0][1] if found else None, notes, light,
+                         regions=found)
+
+    @staticmethod
+    def light_mask(found, mask: np.ndarray) -> np.ndarray:
+        """The mask (H, W) whose skin around it the photo's light is read from: the lips of the face mesh of `found`
+        ((FaceRegion, LipsFound) or None; one light for the whole face, read where the default lips scene calibrated
+        it), else `mask` itself."""
+        if found is None or found[0] == LIPS or found[1].how != "face" or found[1].landmarks is None:
+            return mask
+        found = found[1]
+        from .face_regions import region_mask, region_polygons
+
+        lips_mask, box = region_mask(region_polygons(found.landmarks, LIPS), *mask.shape)
+        return lips_mask if box[2] else mask
 
     def face_and_hair(self, whole: np.ndarray, find_hair: bool, neutral_light: bool, facts: dict | None = None
                       ) -> tuple[object, object, object]:
@@ -338,10 +402,8 @@ class PhotoReader:
 
     def region_reference(self, product, whole: np.ndarray, crop=None, mask: np.ndarray | None = None, find: bool = True,
                          neutral_light: bool = True) -> Reference:
-        """`whole` (H, W, 3) made ready for `product`: its face-mesh region (the lips) found and framed, or, for a
-        product with no face-mesh region, the hair found and a square of it cut; one-line errors. A product that does
-        not find its region yet (finds_region False: the eyelids) takes the photo (or crop) as framed on it."""
-        find = find and product.finds_region
+        """`whole` (H, W, 3) made ready for `product`: its face-mesh regions (the lips; both eyes' lids) found and
+        framed, or, for a product with no face-mesh region, the hair found and a square of it cut; one-line errors."""
         if product.face_region is None:
             return self.hair_reference(whole, crop, mask, neutral_light, find)
         return self.face_region_reference(product, whole, crop, mask, find, neutral_light)

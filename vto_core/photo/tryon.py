@@ -1,5 +1,5 @@
-"""The lipstick on a photo, the part without Blender: the lips mesh from the face mesh, and the composite that keeps
-the photo's own lips under the product.
+"""A product on a photo, the part without Blender: the lips' and the eyelids' meshes from the face mesh, and the
+composite that keeps the photo's own lips (or lids) under the product.
 
 The renderer (blender_addon.renderers.tryon) renders the lips mesh twice under the photo's light, bare (the lips' own
 shader with the photo's mean lip colour) and wearing the product. Their ratio (worn_over_bare) is what the
@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..colour import luminance
+from ..products import FaceRegion
 from .lips_locator import LIP_INNER, LIP_OUTER
 
 MESH_ROWS = 4  # rings of quads from the outer lip contour (v = 0) to the inner one (v = 1)
@@ -51,6 +52,60 @@ def lips_mesh(points: np.ndarray, depth: np.ndarray | None = None, rows: int = M
             a, b = row * columns + col, row * columns + (col + 1) % columns
             quads.append((a, b, b + columns, a + columns))
     return np.concatenate(vertices), quads, np.concatenate(uvs)
+
+
+LID_COLUMNS, LID_ROWS = 24, 8  # the lid mesh: columns from the outer corner to the inner, rows from lashes to brow
+LID_SIDE = 2  # points of a lid loop on each side between the lash line and the brow (MediaPipe's two rings)
+
+
+def resampled(points: np.ndarray, count: int) -> np.ndarray:
+    """A polyline (K, D) -> (count, D) points evenly spaced along its length (its ends kept)."""
+    points = np.asarray(points, np.float64)
+    lengths = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points[:, :2], axis=0), axis=1))])
+    at = np.linspace(0.0, lengths[-1], count)
+    if lengths[-1] <= 0:
+        return np.repeat(points[:1], count, axis=0)
+    return np.stack([np.interp(at, lengths, points[:, k]) for k in range(points.shape[1])], axis=1)
+
+
+def lid_mesh(points: np.ndarray, depth: np.ndarray | None, region: FaceRegion, columns: int = LID_COLUMNS,
+             rows: int = LID_ROWS) -> tuple[np.ndarray, list[tuple[int, int, int, int]], np.ndarray]:
+    """An eyelid as a mesh from the face mesh's (468, 2) points (and (468,) depth, nearer lower; None: flat): a Coons
+    patch on its loop (region.loops[0]: the lash line, the points on the eye's opening from the outer corner to the
+    inner; then LID_SIDE points up the inner side, MediaPipe's rings; the brow's edge, inner to outer; LID_SIDE down the
+    outer side). Vertices (V, 3) x, y in pixels and z towards the viewer, quads (wound as the lips'), UVs (V, 2): u from
+    the outer end (0) to the inner (1), v from the lash line (0) to the brow (1), the eye-shadow group's lid coordinate.
+    """
+    points = np.asarray(points, np.float64)
+    depth = np.zeros(len(points)) if depth is None else np.asarray(depth, np.float64)
+    at = np.column_stack([points, -depth])  # (468, 3): z towards the viewer
+    loop = list(region.loops[0])
+    lash = [i for i in loop if i in region.opening]
+    rest = [i for i in loop if i not in region.opening]  # inner side up, the brow's edge inner -> outer, outer side down
+    inner_side = [lash[-1]] + rest[:LID_SIDE] + [rest[LID_SIDE]]
+    brow = rest[LID_SIDE:len(rest) - LID_SIDE][::-1]
+    outer_side = [lash[0]] + rest[len(rest) - LID_SIDE:][::-1] + [brow[0]]
+    lower, upper = resampled(at[lash], columns), resampled(at[brow], columns)
+    outer, inner = resampled(at[outer_side], rows + 1), resampled(at[inner_side], rows + 1)
+    u = np.linspace(0.0, 1.0, columns)[None, :, None]
+    v = np.linspace(0.0, 1.0, rows + 1)[:, None, None]
+    corners = ((1 - u) * (1 - v) * lower[0] + u * (1 - v) * lower[-1] + (1 - u) * v * upper[0] + u * v * upper[-1])
+    grid = (1 - v) * lower[None] + v * upper[None] + (1 - u) * outer[:, None] + u * inner[:, None] - corners
+    vertices = grid.reshape(-1, 3)
+    quads = [(row * columns + col, row * columns + col + 1, (row + 1) * columns + col + 1, (row + 1) * columns + col)
+             for row in range(rows) for col in range(columns - 1)]
+    # The lash line runs outer -> inner: left to right on the photo's left eye, right to left on its right eye. The
+    # quads are wound as the lips' are (clockwise on the photo, whose y runs down), so each faces the viewer.
+    if sum(signed_area(vertices[list(quad), :2]) for quad in quads) > 0:
+        quads = [quad[::-1] for quad in quads]
+    uvs = np.stack(np.broadcast_arrays(u[..., 0], v[..., 0]), axis=-1).reshape(-1, 2)
+    return vertices, quads, uvs
+
+
+def signed_area(polygon: np.ndarray) -> float:
+    """The shoelace area of a polygon (K, 2) in image pixels: < 0 where it runs clockwise on the photo (y down)."""
+    x, y = polygon[:, 0], polygon[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
 
 
 def feathered(mask: np.ndarray, radius: int = FEATHER) -> np.ndarray:

@@ -89,3 +89,28 @@ def test_a_folder_without_a_face_to_try_on_is_a_clear_error(tmp_path, capsys):
                     "--photos", str(blank)]) == 2
     assert "no lips can be tried on any of the 1 portraits" in capsys.readouterr().err
     assert not list((tmp_path / "ds" / "samples").glob("*"))
+
+
+def test_eye_shadow_looks_take_each_eye_by_turns_read_as_a_right_eye(tmp_path):
+    """`vto dataset eyeshadow --photos`: looks on the right and left lids by turns, each read as Match reads one eye
+    (the left flipped), repeatable; the shade lies on the lid, not on the brow or the cheek."""
+    from blender_addon.datasets.photo_looks import FRAME_RENDER, PhotoLooks
+    from vto_core.products import EYESHADOW
+
+    faces = tmp_path / "faces"
+    faces.mkdir()
+    shutil.copy(FACES / FACE, faces / FACE)
+    argv = ["dataset", "eyeshadow", "--n", "2", "--seed", "4", "--samples", "4", "--photos", str(faces), "--quiet"]
+    for name in ("a", "b"):
+        assert cli.run([*argv, "--out", str(tmp_path / name)]) == 0
+    assert hashes(tmp_path / "a") == hashes(tmp_path / "b")
+    reader = DatasetReader(tmp_path / "a")
+    assert [reader[k].record["region"] for k in range(2)] == [0, 1]  # the right eye, then the left
+    for position in range(2):
+        sample = reader[position]
+        moved = np.abs(srgb_to_lab(sample.render) - srgb_to_lab(sample.source)).max(axis=-1)
+        changed = moved > 2.0
+        assert changed.any() and changed.mean() < 0.4 and not changed[-8:].any()  # the lid, not the cheek below
+    looks = PhotoLooks(faces, 64, 4, 4, EYESHADOW)
+    _, targets, _ = looks.face(0)
+    assert [t.region.mirrored for t in targets] == [False, True] and all(t.n == FRAME_RENDER for t in targets)

@@ -64,7 +64,7 @@ def photo_estimate(session, renderer: str, path: Path) -> dict:
     from blender_addon.matching.batch import batch_reference, fast_values
 
     reference = batch_reference(renderer, path)
-    return fast_values(session.spec, reference, session.predict(reference.image)[0])
+    return fast_values(session.spec, reference, session.predict_views([reference.images])[0])
 
 
 def test_presets_are_the_medians_of_the_per_image_estimates(photos, batch_out):
@@ -354,37 +354,43 @@ def assert_library_holds(rows: dict, presets: dict, folder: Path) -> None:
 
 
 @pytest.mark.torch
-def test_eyeshadow_batch_reads_photos_of_one_eye_and_writes_its_presets_as_asset_materials(tmp_path,
-                                                                                          eyeshadow_encoder):
-    """Eye-shadow photos (renders of one eye, read as framed: eyelids are not found in portraits yet) with a tiny
-    trained encoder: a preset per product, the medians of its photos' estimates, each an asset material."""
+def test_eyeshadow_batch_reads_both_eyes_of_portraits_and_writes_its_presets_as_asset_materials(tmp_path,
+                                                                                                eyeshadow_encoder):
+    """Portraits wearing eye shadow (tried on the astronaut and Grace Hopper) with a tiny trained encoder: both eyes'
+    lids found and read, a preset per product, the medians of its photos' estimates, each an asset material, and the
+    sheet's try-on column."""
+    import matplotlib.cbook
+    import skimage.data
+
     from blender_addon.matching.batch import batch_reference
-    from blender_addon.renderers.products import render
+    from blender_addon.renderers.tryon import tryon_product
     from vto_core.products import EYESHADOW
 
+    faces = {"astronaut": skimage.data.astronaut().astype(np.float32) / 255,
+             "hopper": read_image(matplotlib.cbook.get_sample_data("grace_hopper.jpg", asfileobj=False))[0]}
     photos, shades = tmp_path / "photos", load_presets("eyeshadow")
     photos.mkdir()
-    for stem, (shade, source) in {"plum_1": ("Plum", 1), "plum_2": ("Plum", 2), "plum_4": ("Plum", 4),
-                                  "gold_1": ("Gold Leaf", 1)}.items():
-        write_image(photos / f"{stem}.png", render("eyeshadow", shades[shade], source, RES, 2), bits=16)
+    for stem, (shade, face) in {"plum_1": ("Plum", "astronaut"), "plum_2": ("Plum", "hopper"),
+                                "gold_1": ("Gold Leaf", "astronaut")}.items():
+        write_image(photos / f"{stem}.png", tryon_product(EYESHADOW, faces[face], shades[shade], samples=2))
     out = tmp_path / "out"
     assert cli.run(["batch", "--model", eyeshadow_encoder, "--images", str(photos), "--out", str(out), "--group-by",
                     r"^([a-z]+)_", "--res", "16", "--samples", "1", "--quiet"]) == 0
     report = json.loads((out / "report.json").read_text())
     assert report["renderer"] == "eyeshadow" and report["skipped"] == []
-    assert report["products"] == {"gold": ["gold_1.png"], "plum": ["plum_1.png", "plum_2.png", "plum_4.png"]}
+    assert report["products"] == {"gold": ["gold_1.png"], "plum": ["plum_1.png", "plum_2.png"]}
     session = EncoderSession(eyeshadow_encoder)
     presets = load_presets("eyeshadow", out / "presets.json")
     for product, names in report["products"].items():
-        for name in names:  # the photo read whole, as framed on the eye
+        for name in names:  # both eyes read, each framed as the default eye scene frames one
             reference = batch_reference("eyeshadow", photos / name)
-            assert reference.region is None and np.array_equal(reference.image, read_image(photos / name)[0])
+            assert reference.region is not None and len(reference.images) == 2
         estimates = [photo_estimate(session, "eyeshadow", photos / name) for name in names]
         assert presets[product] == pytest.approx(median_values(session.spec, estimates), abs=1e-9)
     assert presets["plum"] != pytest.approx(presets["gold"], abs=1e-3)
     assert EYESHADOW.asset_library and report["asset_library"] == str(out / "assets.blend")
     assert_library_holds(library_rows(out / "assets.blend", "VTO Eye Shadow"), presets, out)
-    assert report["sheet_no_tryon"] == {"gold": "eyeshadow has no try-on yet", "plum": "eyeshadow has no try-on yet"}
+    assert report["sheet_no_tryon"] == {} and report["sheet_columns"] == ["photo", "try-on", "render"]
 
 
 def test_the_shipped_eyeshadow_presets_become_an_asset_library(tmp_path):

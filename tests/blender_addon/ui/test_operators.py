@@ -916,6 +916,19 @@ TEAL = {"opacity": 0.9, "red": 40.0, "green": 120.0, "blue": 140.0}  # the look 
 
 @pytest.fixture(scope="module")
 def eye_photo(tmp_path_factory):
+    """A portrait wearing a teal shadow on both eyes: the astronaut (public domain, NASA) with TEAL tried on, a PNG."""
+    import skimage.data
+
+    from blender_addon.renderers.tryon import tryon_product
+    from vto_core.products import EYESHADOW
+
+    path = tmp_path_factory.mktemp("eye") / "portrait.png"
+    write_image(path, tryon_product(EYESHADOW, skimage.data.astronaut().astype(np.float32) / 255, TEAL, samples=2))
+    return str(path)
+
+
+@pytest.fixture(scope="module")
+def one_eye_photo(tmp_path_factory):
     """A photo framed on one eye: the default eye scene (source 3) wearing a teal shadow, 32 px, as a PNG."""
     from blender_addon.renderers.products import render
 
@@ -970,10 +983,10 @@ def test_add_material_adds_each_material_products_group_and_the_old_lipstick_idn
     assert [entry for entry in log if entry[0] == "operator"] == [("operator", "vto.add_material")] * 2
 
 
-def test_eyeshadow_match_writes_the_encoders_estimate_of_a_photo_framed_on_one_eye(lid, eye_photo,
-                                                                                  eyeshadow_encoder):
-    """Find Region is on (the default), but eye shadow does not find eyelids yet: the photo is read as framed, whole,
-    with its light as it is; the estimate of the tiny trained encoder lands in the group, the rest stays."""
+def test_eyeshadow_match_writes_the_mean_estimate_of_both_eyes_of_a_portrait(lid, eye_photo, eyeshadow_encoder):
+    """Find Region on (the default): both eyes' lids found, each framed as the default eye scene frames one and read
+    with the photo's light taken out; the mean of the tiny trained encoder's two estimates lands in the group, the rest
+    stays."""
     from blender_addon.matching.reference import read_reference
     from blender_addon.ui.operators import target_items
 
@@ -983,16 +996,34 @@ def test_eyeshadow_match_writes_the_encoders_estimate_of_a_photo_framed_on_one_e
         {"FINISHED"}, None)
     after = shadow_inputs(lid)
     reference = read_reference("eyeshadow", {"image_path": eye_photo})
-    assert reference.region is None and reference.light is None and np.array_equal(reference.image,
-                                                                                   load_reference(eye_photo))
+    assert len(reference.regions) == 2 and len(reference.images) == 2 and reference.light.read_from == "skin"
     session = EncoderSession(eyeshadow_encoder)
     assert session.spec.modelled == ("opacity", "red", "green", "blue")
-    expected = expected_estimate(load_reference(eye_photo), eyeshadow_encoder)
+    values = session.predict_views([reference.images])[0]
+    expected = {name: values[name] for name in session.spec.modelled}
+    assert expected != pytest.approx(expected_estimate(reference.image, eyeshadow_encoder), abs=1e-4)  # both eyes
     assert {n: after[n] for n in expected} == pytest.approx(expected, abs=1e-4)
     changed = {n for n in after if after[n] != before[n]}
     assert changed <= set(expected) and changed and after["height"] == pytest.approx(0.8)  # the rest untouched
     last = json.loads(bpy.data.materials[lid].vto_match.last_estimate)
     assert last["renderer"] == "eyeshadow" and last["values"] == pytest.approx(expected)
+
+
+def test_eyeshadow_match_reads_a_photo_of_one_eye_whole_with_find_region_off(lid, one_eye_photo, eyeshadow_encoder):
+    """A close-up of one eye (no face to find eyelids in): with Find Eyelids off it is read as framed, whole, its light
+    as it is."""
+    from blender_addon.matching.reference import read_reference
+
+    result, error = run_match(target="EYESHADOW", material=lid, image_path=one_eye_photo,
+                              model_path=eyeshadow_encoder)
+    assert result == {"CANCELLED"} and "no eyelids found: no face in the image" in error
+    assert run_match(target="EYESHADOW", material=lid, image_path=one_eye_photo, model_path=eyeshadow_encoder,
+                     find_region=False) == ({"FINISHED"}, None)
+    reference = read_reference("eyeshadow", {"image_path": one_eye_photo, "find_region": False})
+    assert reference.region is None and reference.light is None
+    assert np.array_equal(reference.image, load_reference(one_eye_photo))
+    expected = expected_estimate(load_reference(one_eye_photo), eyeshadow_encoder)
+    assert {n: shadow_inputs(lid)[n] for n in expected} == pytest.approx(expected, abs=1e-4)
 
 
 def test_eyeshadow_match_is_one_undo_step_and_a_failure_changes_nothing(lid, eye_photo, eyeshadow_encoder,
@@ -1030,6 +1061,6 @@ def test_eyeshadow_preference_defaults_to_the_shipped_model_and_the_panel_says_w
     bpy.types.VTO_PT_match_material.draw(SimpleNamespace(layout=FakeLayout(log)), context)
     labels = [entry[1] for entry in log if entry[0] == "label"]
     assert "no model file gone.onnx" in labels
-    assert "The photo is read as framed on the eyelids" in labels and ("prop", "find_region") not in log
+    assert ("prop", "find_region") in log  # Find Eyelids: the lids are found in a whole portrait
     assert [entry for entry in log if entry[0] == "enum"] == []  # EYESHADOW.fit.offered: Fast alone
     assert EYESHADOW_PRODUCT.fit.not_offered in labels and ("operator", "vto.match_from_photo") in log

@@ -90,7 +90,7 @@ def test_the_cp313_zip_installs_from_disk_in_a_python_313_blender(run):
     assert stage1["install"] == ["FINISHED"] and stage1["enabled"]
     version, path = stage1["onnxruntime"]
     assert version == "1.20.0" and path.startswith(stage1["site"]) and "/python3.13/site-packages/" in path
-    assert stage1["add_material"] == ["FINISHED"] == stage1["add_hair"]
+    assert stage1["add_material"] == ["FINISHED"] == stage1["add_hair"] == stage1["add_eyeshadow"]
 
 
 def test_the_window_run_completes_without_errors(run):
@@ -131,6 +131,24 @@ def test_the_hair_of_the_whole_portrait_matches_in_the_compositor_sidebar_and_un
     assert values["intensity"] == 1.0 and values["blend"] == -1.0  # a photo: full effect
     for name in ("hair_before", "hair_after"):
         assert (run.out / f"{name}_panel.png").stat().st_size > 1000
+
+
+def test_eye_shadow_on_a_whole_portrait_matches_both_eyes_previews_and_undoes(run):
+    """The Lid's VTO Eye Shadow material and the portrait wearing Royal Purple (98, 52, 150): both eyes' lids found,
+    Match (Fast) by a real click writes a purple, Preview on Photo is made, one ctrl+z restores, the next clicks give
+    the same values."""
+    eyes = run.part("eyes")
+    for key in ("first", "undone", "second", "third", "estimate", "found"):
+        run.part("eyes", key)
+    assert eyes["found"]["views"] == 2 and len(eyes["found"]["boxes"]) == 2
+    changed = {k for k in eyes["first"] if eyes["first"][k] != eyes["defaults"][k]}
+    assert {"Opacity", "Red", "Green", "Blue"} <= changed and not changed & {"Height", "Softness", "Shift"}
+    assert eyes["first"]["Blue"] > eyes["first"]["Green"] + 20 and eyes["first"]["Red"] > eyes["first"]["Green"]
+    assert eyes["undone"] == eyes["defaults"] and eyes["second"] == eyes["first"] == eyes["third"]
+    assert eyes["preview_after_match"]["icon"] > 0 and eyes["preview_after_match"]["note"] == ""
+    assert eyes["quality_label"] == "Fast: no render, milliseconds"
+    assert len(eyes["ms"]) == 3 and all(0.0 < t < 60_000.0 for t in eyes["ms"]), eyes["ms"]
+    assert (run.out / "eyes_matched_panel.png").stat().st_size > 1000
 
 
 def test_the_lips_are_found_in_the_whole_portrait(run):

@@ -58,3 +58,51 @@ def test_extremes_stay_finite():
     assert np.isfinite(out).all()
     assert np.array_equal(lowered_highlights(black, np.zeros((8, 8))), black)
     assert composite(black, worn_over_bare(black, black), np.zeros((8, 8)), -1.0) == pytest.approx(black)
+
+
+def lid_points(flip: bool = False):
+    """A face mesh whose right eye's lid loop is a half ring: the lash line a flat arc 40 px wide, the brow's edge an
+    arc 20 px above it (mirrored left to right with flip, as a left eye is)."""
+    from vto_core.products import EYELIDS
+
+    points = np.zeros((468, 2))
+    loop = list(EYELIDS.loops[0])
+    lash = [i for i in loop if i in EYELIDS.opening]  # 9: outer corner (x 80) -> inner (x 120)
+    rest = [i for i in loop if i not in EYELIDS.opening]  # 2 up the inner side, the brow inner -> outer, 2 down
+    xs = np.linspace(80, 120, len(lash))
+    points[lash] = np.column_stack([xs, 100 - 4 * np.sin(np.linspace(0, np.pi, len(lash)))])
+    brow = rest[2:-2]
+    points[brow] = np.column_stack([np.linspace(122, 76, len(brow)), np.full(len(brow), 78.0)])
+    points[rest[:2]] = [[121, 93], [122, 86]]
+    points[rest[-2:]] = [[77, 86], [78, 93]]
+    if flip:
+        points[:, 0] = 200 - points[:, 0]
+    return points
+
+
+@pytest.mark.parametrize("flip", [False, True], ids=["right eye", "left eye"])
+def test_the_lid_mesh_spans_the_loop_from_lash_line_to_brow_facing_the_viewer(flip):
+    from vto_core.photo.face_regions import region_mask
+    from vto_core.photo.tryon import LID_COLUMNS, LID_ROWS, lid_mesh, signed_area
+    from vto_core.products import EYELIDS
+
+    points = lid_points(flip)
+    vertices, quads, uvs = lid_mesh(points, np.zeros(468), EYELIDS)
+    assert vertices.shape == ((LID_ROWS + 1) * LID_COLUMNS, 3) and len(quads) == LID_ROWS * (LID_COLUMNS - 1)
+    areas = np.array([signed_area(vertices[list(quad), :2]) for quad in quads])
+    assert (areas < 0).all()  # no fold, every quad wound as the lips' are (so it faces the camera)
+    mask, _ = region_mask([points[list(EYELIDS.loops[0])]], 200, 200)
+    assert abs(-areas.sum() - mask.sum()) < 0.05 * mask.sum()  # the patch covers the loop
+    lash = vertices[:LID_COLUMNS, 1]
+    assert np.allclose(uvs[:LID_COLUMNS, 1], 0) and np.allclose(uvs[-LID_COLUMNS:, 1], 1)  # v: lashes 0, brow 1
+    assert lash.min() > 95 and np.allclose(vertices[-LID_COLUMNS:, 1], 78)  # the lash line below, the brow above
+    outer_x = vertices[0, 0]
+    assert (outer_x < 100) != flip and np.allclose(uvs[:LID_COLUMNS, 0], np.linspace(0, 1, LID_COLUMNS))
+
+
+def test_the_lid_mesh_is_finite_on_a_collapsed_face():
+    from vto_core.photo.tryon import lid_mesh
+    from vto_core.products import LEFT_EYELID
+
+    vertices, quads, uvs = lid_mesh(np.full((468, 2), 50.0), None, LEFT_EYELID)
+    assert np.isfinite(vertices).all() and np.isfinite(uvs).all() and np.allclose(vertices[:, :2], 50)
