@@ -3,13 +3,15 @@ the estimate, and a picture (issue "Eye shadow from a portrait").
 
     python -m benchmarks.bench_eyeshadow_photos [--model NEW.onnx] [--compare OLD.onnx ...]
         [--parts found,roundtrip,moves,picture] [--faces 13] [--products 16] [--move-faces 4]
+        [--qualities fast,better,best] [--best-faces 2]
 
 found: every portrait of benchmarks/photos and every held-out face of data/faces: both eyes' lids found (PhotoReader
     .locate_regions), their widths and the eye openings' L* spread, and the time finding them adds to the face read (at
     the photo's size, and per megapixel); then both eyes covered (sunglasses: a dark lens with a highlight; a hand: a
     patch of the face's own cheek) and refused.
 (a) roundtrip: each of PRODUCTS tried on both eyes of each held-out face (`vto tryon eyeshadow`'s renderer, 16 spp),
-    read back by `vto match` (Fast, both eyes' mean); truth and estimate rendered on default eye sources 0-7 (64 px,
+    read back by `vto match` (Fast, both eyes' mean; Better and Best with --qualities, fitted in the photo's own scene
+    on the right eye's lid, Best on the first --best-faces faces); truth and estimate rendered on default eye sources 0-7 (64 px,
     16 spp): CIEDE2000 between their apparent colours (the median over the sources of the lid's mean colour), the
     product L* slope (estimate on truth, over every look), and the time.
 (c) moves: the first --move-faces faces' looks of 4 products re-lit (two white balances, +-0.7 EV), tilted (-45..45
@@ -150,16 +152,27 @@ def tried_on(work: Path, faces: int, products: int) -> list[tuple[dict, str, Pat
     return worn
 
 
-def roundtrip(models: dict[str, Path], worn: list, renders: Renders) -> str:
-    """Part (a): per model, the median CIEDE2000, the product L* slope and the time; per face and per product."""
+def roundtrip(models: dict[str, Path], worn: list, renders: Renders, qualities: list[str], best_faces: int) -> str:
+    """Part (a): per model and quality (the new model's Better and Best: Best on the first best_faces faces, beside
+    Fast and Better there), the median CIEDE2000, the product L* slope and the time; per face and per product."""
     from vto_core.presets import load_presets
 
     presets = load_presets("eyeshadow")
+    first = {entry["file"] for entry in held_out_faces(best_faces)}
+    some = [look for look in worn if look[0]["file"] in first]
+    runs = [(label, "fast", worn) for label in models]
+    runs += [("new", quality, worn) for quality in qualities if quality == "better"]
+    if "best" in qualities:
+        runs += [("new", quality, some) for quality in ("fast", "better", "best")]
     rows, per_face, per_product = [], {}, {}
-    for label, model in models.items():
+    for label, quality, looked in runs:
+        if looked is some:
+            label = f"{label}, {quality} (first {best_faces} faces)"
+        elif quality != "fast":
+            label = f"{label}, {quality}"
         errors, truth_l, found_l, times = [], [], [], []
-        for entry, name, path in worn:
-            values, ms = estimate(model, path, "fast")
+        for entry, name, path in looked:
+            values, ms = estimate(models[label.split(",")[0]], path, quality)
             truth, guess = renders.apparent(presets[name], SOURCES), renders.apparent(values, SOURCES)
             errors.append(delta_e(truth, guess))
             truth_l.append(lab(truth)[0])
@@ -168,12 +181,14 @@ def roundtrip(models: dict[str, Path], worn: list, renders: Renders) -> str:
             per_face.setdefault(entry["subject"].split(",")[0], {}).setdefault(label, []).append(errors[-1])
             per_product.setdefault(name, {}).setdefault(label, []).append(found_l[-1] - truth_l[-1])
         slope = np.polyfit(truth_l, found_l, 1)[0]
-        rows.append([label, len(worn), f"{np.median(errors):.2f}", f"{np.mean(errors):.2f}", f"{slope:.2f}",
+        rows.append([label, len(looked), f"{np.median(errors):.2f}", f"{np.mean(errors):.2f}", f"{slope:.2f}",
                      f"{np.median(times):,.0f}"])
-    labels = list(models)
-    face_rows = [[face, *[f"{np.median(by[label]):.2f}" for label in labels]] for face, by in per_face.items()]
+    labels = [row[0] for row in rows]
+    face_rows = [[face, *[f"{np.median(by[label]):.2f}" if label in by else "-" for label in labels]]
+                 for face, by in per_face.items()]
     product_rows = [[name, f"{lab(renders.apparent(presets[name], SOURCES))[0]:.1f}",
-                     *[f"{np.median(by[label]):+.1f}" for label in labels]] for name, by in per_product.items()]
+                     *[f"{np.median(by[label]):+.1f}" if label in by else "-" for label in labels]]
+                    for name, by in per_product.items()]
     faces = len(per_face)
     return "\n".join([
         f"{faces} held-out faces x {len(per_product)} products ({', '.join(per_product)}), tried on both eyes with "
@@ -255,6 +270,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--faces", type=int, default=13)
     parser.add_argument("--products", type=int, default=len(PRODUCTS))
     parser.add_argument("--move-faces", type=int, default=4)
+    parser.add_argument("--qualities", default="fast", help="fast[,better[,best]]: the new model's qualities in (a)")
+    parser.add_argument("--best-faces", type=int, default=2, help="Best (and Fast, Better beside it) on these faces")
     parser.add_argument("--work", type=Path, default=ROOT / "out" / "eyeshadow_photos_work")
     args = parser.parse_args(argv)
     parts = args.parts.split(",")
@@ -271,7 +288,8 @@ def main(argv: list[str] | None = None) -> None:
         write_section(RESULT, "found", found_part())
     worn = tried_on(args.work, args.faces, args.products) if set(parts) & {"roundtrip", "moves", "picture"} else []
     if "roundtrip" in parts:
-        write_section(RESULT, "roundtrip", roundtrip(models, worn, renders))
+        write_section(RESULT, "roundtrip", roundtrip(models, worn, renders, args.qualities.split(","),
+                                                     args.best_faces))
     if "moves" in parts:
         write_section(RESULT, "moves", moves(args.model, worn, args.work, args.move_faces, renders))
     if "picture" in parts:

@@ -188,8 +188,8 @@ EYESHADOW = Product(
     "eyeshadow", "Eye Shadow", eyeshadow_spec(), MATERIAL, "eyelids", EYELIDS,
     FitPolicy(renders=frozen({"BETTER": (1, 25), "BEST": (2, 100)}),
               seconds=frozen({"BETTER": (3, 11), "BEST": (12, 18)}),
-              offered=("FAST",), not_offered="Better and Best: not yet measured on eyes", prior_weight=8.0),
-    "EYESHADOW", "'VTO Eye Shadow' group", ".product_eyeshadow", lightings=True, masks=True,
+              offered=QUALITIES, prior_weight=8.0),
+    "EYESHADOW", "'VTO Eye Shadow' group", ".product_eyeshadow", fits_in_photo_scene=True, lightings=True, masks=True,
     photo_datasets=True, look=frozen({"opacity": 1.0}), layer_looks=True, tryon=True, asset_library=True,
     smoke_params=("opacity", "red", "green", "blue"), other_regions=(LEFT_EYELID,))
 
@@ -207,6 +207,11 @@ def get_product(name: str) -> Product:
         return PRODUCTS[name]
     except (KeyError, TypeError):
         raise VtoError(f"unknown product '{name}'; choose from {', '.join(PRODUCTS)}") from None
+
+
+def product_of_region(region: FaceRegion) -> Product:
+    """The product worn on face region `region` (its face_region or one of its other_regions)."""
+    return next(p for p in PRODUCTS.values() if region in p.face_regions)
 
 
 def product_of_target(target: str) -> Product:

@@ -181,7 +181,7 @@ def iter_compute(prepared: dict):
     if prepared["quality"] != "FAST":
         with scratch_data():  # the default scenes the fit renders leave nothing in the artist's .blend
             values = yield from iter_fit_photo(spec, reference.region, encoder, prepared["quality"],
-                                               others=(values,), photo=(reference.whole, reference.lips))
+                                               others=(values,), photo=(reference.whole, (reference.regions or [None])[0]))
         values = photo_values(spec, values)
     return values
 

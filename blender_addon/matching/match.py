@@ -156,7 +156,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
         renders = []
         fitted = drain(iter_fit_photo(spec, prepared.region, encoder, quality, samples=samples,
                                       others=({k: values[k] for k in spec.modelled},),
-                                      photo=(prepared.whole, prepared.lips)),
+                                      photo=(prepared.whole, (prepared.regions or [None])[0])),
                        renders.append)
         result.update(params=spec.full_values(photo_values(spec, fitted)), refined=True, method=quality.lower(),
                       renders=renders[-1],

@@ -71,8 +71,8 @@ def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
     real photos mostly Fast's (the lipstick model card). Lips: the sources are those of LIPS_POOL whose skin looks most
     like the photo's, toned so their skin shows the photo's skin colour (a scene whose light and skin tone are fitted,
     as far as the skin shows them; the bare lips follow the skin). Hair: its fit sources' hair regions, as rendered
-    (ProductRenderer.iter_fit_sources). photo: (the whole photo (H, W, 3), the lips found in it): lips of a face are
-    fitted in the photo's own scene instead (blender_addon.matching.photo_scene_fit), from Fast's estimate (the last of
+    (ProductRenderer.iter_fit_sources). photo: (the whole photo (H, W, 3), (FaceRegion, LipsFound) of the region
+    found in it, or None): a face's lips (lids) are fitted in the photo's own scene instead (blender_addon.matching.photo_scene_fit), from Fast's estimate (the last of
     `others`, else `start`). A generator: yields renders made so far (0 while the first fit of a session renders its
     lips sources); returns the fitted modelled values (raw, inside their ranges)."""
     from vto_core.appearance import region_statistics

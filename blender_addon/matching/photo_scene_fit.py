@@ -1,6 +1,6 @@
-"""Better and Best for lips in the photo's own scene: each candidate rendered onto this photo's lips (its face mesh,
-its light, bare lips under the layer: the try-on, blender_addon.renderers.tryon) and compared with the photo pixel by
-pixel.
+"""Better and Best in the photo's own scene (lips; an eye's lid): each candidate rendered onto this photo's region (its
+face mesh, its light, the bare region under the layer: the try-on, blender_addon.renderers.tryon) and compared with the
+photo pixel by pixel. Written for the lips; a lid is read alike, its bare colour the skin's beside it (PhotoLayer.bare).
 
 A made-up photo does not show its bare lips, and with the photo's own lips under the layer no product at all
 (opacity 0) would reproduce the photo. So what lies under the layer is made from the photo: Fast's product divided
@@ -23,7 +23,6 @@ from vto_core.appearance import skin_colour
 from vto_core.colour import linear_to_srgb, srgb_to_linear
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
-from vto_core.photo.bare_lips import bare_lips
 from vto_core.photo.tryon import composite, feathered, worn_over_bare
 from vto_core.specs import RendererSpec
 
@@ -44,16 +43,21 @@ CORE_MEDIAN = np.array([1.15, 1.09, 1.13])
 TRUST_SCALE = 0.5  # log colour: a pixel of the lips left 1.65 times off the bare lips' colour has half the trust
 
 
-def scene_target(photo: np.ndarray, lips, n: int):
-    """The photo's lips ready to fit in its own scene (blender_addon.renderers.tryon.PhotoLips at n x n px), or None
-    where they cannot be: no face's lips (a close-up, a mask), lips too small to render onto, or no skin beside them
-    to tell the bare lips' colour."""
-    from ..renderers.tryon import photo_lips
+def scene_target(photo: np.ndarray, found, n: int):
+    """The photo's region `found` ((FaceRegion, LipsFound) or None: the lips, the first lid read) ready to fit in its
+    own scene (blender_addon.renderers.tryon.PhotoRegion at n x n px), or None where it cannot be: no face's region (a
+    close-up, a mask), one too small to render onto, or no skin beside it to tell the bare region's colour."""
+    from vto_core.photo.face_reader import clean_photo
+    from vto_core.products import product_of_region
 
-    if lips is None:
+    from ..renderers.tryon import photo_layer, photo_region, to_render
+
+    if found is None:
         return None
+    region, where = found
     try:
-        target = photo_lips(photo, n, lips)
+        layer = photo_layer(product_of_region(region))
+        target = photo_region(clean_photo(photo), to_render(where, region, layer), region, layer, n)
     except VtoError:
         return None
     if not (target.mask > 0.5).any() or skin_colour(target.frame, target.mask) is None:
@@ -68,8 +72,8 @@ def lips_core(mask: np.ndarray) -> np.ndarray:
     return core if core.any() else np.asarray(mask) > 0.5
 
 
-def under_layer(frame: np.ndarray, soft: np.ndarray, core: np.ndarray, ratio: np.ndarray, bare: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
+def under_layer(frame: np.ndarray, soft: np.ndarray, core: np.ndarray, ratio: np.ndarray, bare: np.ndarray,
+                core_median=CORE_MEDIAN) -> tuple[np.ndarray, np.ndarray]:
     """What lies under the layer, and where the photo shows the layer: (the photo's frame (n, n, 3) linear with the
     product of `ratio` (n, n, 3, what Fast's estimate does to the lips) divided out inside the soft mask (n, n) and
     scaled per channel so that the median of its trusted pixels is what the `bare` lips' colour (3,) linear gives
@@ -83,7 +87,7 @@ def under_layer(frame: np.ndarray, soft: np.ndarray, core: np.ndarray, ratio: np
     if not core.any():
         return np.asarray(frame, np.float32), np.zeros(core.shape, np.float32)
     lifted = frame / np.maximum(ratio, LIFT_FLOOR)
-    expected = np.asarray(bare, np.float64) * CORE_MEDIAN
+    expected = np.asarray(bare, np.float64) * np.asarray(core_median)
     distance = np.linalg.norm(np.log(np.maximum(lifted, 1e-4)) - np.log(np.maximum(expected, 1e-4)), axis=-1)
     trust = np.where(core, 1.0 / (1.0 + (distance / TRUST_SCALE) ** 2), 0.0)
     trusted = trust >= 0.5
@@ -94,33 +98,34 @@ def under_layer(frame: np.ndarray, soft: np.ndarray, core: np.ndarray, ratio: np
 
 def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], quality: str,
                          samples: int = DEFAULT_SAMPLES, seed: int = 0):
-    """Fit the lipstick's modelled values so that, tried on `target`'s bare lips (scene_target, framed at
+    """Fit the product's modelled values so that, tried on `target`'s bare region (scene_target, framed at
     SCENE_FIT[quality]'s size), they show what the photo shows, with SCENE_FIT[quality]'s renders from `start` (Fast's
     modelled raw values). A generator: yields renders made so far; returns the fitted modelled values (raw)."""
     from ..renderers.scene_photo import set_bare
-    from ..renderers.tryon import render_look, set_photo_lips
+    from ..renderers.tryon import render_look, set_photo_region
     from .refine import iter_refine_by_render
 
     if quality not in SCENE_FIT:
         raise VtoError(f"a fit in the photo's scene is {' or '.join(SCENE_FIT)}, got '{quality}'")
     renders = SCENE_FIT[quality][1]
-    predicted = bare_lips(skin_colour(target.frame, target.mask))
-    scene = set_photo_lips(target, samples, seed)
-    set_bare(target.layer, predicted / target.cast)
-    bare = render_look(scene, spec.full_values({"opacity": 0.0}))
+    layer = target.layer
+    predicted = layer.bare(skin_colour(target.frame, target.mask))
+    scene = set_photo_region(target, samples, seed)
+    set_bare(layer, predicted / target.cast)
+    bare = render_look(scene, spec.full_values({"opacity": 0.0}), layer)
     yield 1
     soft = feathered(target.mask)
     if bare.shape[:2] != soft.shape:
         raise VtoError(f"the photo scene rendered {bare.shape[0]} px for a {soft.shape[0]} px frame")
     core = lips_core(target.mask)
     fast = spec.full_values(start)
-    under, trust = under_layer(srgb_to_linear(target.frame), soft, core, worn_over_bare(bare, render_look(scene, fast)),
-                               predicted)
+    under, trust = under_layer(srgb_to_linear(target.frame), soft, core,
+                               worn_over_bare(bare, render_look(scene, fast, layer)), predicted, layer.core_median)
     yield 2
-    # The scene's bare lips take the colour of what lies under the layer, as the try-on's take the photo's: under an
-    # opaque product the level of the lips under it then divides out, whatever the bare lips' colour was guessed.
-    set_bare(target.layer, under[target.mask > 0.5].mean(axis=0, dtype=np.float64) / target.cast)
-    bare = render_look(scene, spec.full_values({"opacity": 0.0}))
+    # The scene's bare region takes the colour of what lies under the layer, as the try-on's takes the photo's: under
+    # an opaque product the level of the region under it then divides out, whatever its bare colour was guessed.
+    set_bare(layer, under[target.mask > 0.5].mean(axis=0, dtype=np.float64) / target.cast)
+    bare = render_look(scene, spec.full_values({"opacity": 0.0}), layer)
     yield 3
     weights = (255.0 * np.sqrt(trust / max(float(trust.sum()), 1e-6)))[..., None]
     unit = spec.normalise(spec.vector(start))
@@ -128,7 +133,7 @@ def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], qu
 
     def tried(trial: np.ndarray) -> np.ndarray:
         values = spec.full_values(spec.values(spec.denormalise(trial)))
-        ratio = worn_over_bare(bare, render_look(scene, values))
+        ratio = worn_over_bare(bare, render_look(scene, values, layer))
         worn = np.clip(linear_to_srgb(composite(under, ratio, soft, values["opacity"])), 0.0, 1.0)  # as a photo is
         return np.concatenate([(worn * weights).ravel(), SCENE_PRIOR * (trial - unit)])
 

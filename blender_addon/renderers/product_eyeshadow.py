@@ -14,6 +14,12 @@ from .products import BoundSource, ProductRenderer
 # Default-scene seeds the photo fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up.
 EYE_POOL = tuple(range(900001, 900025))
 DARK_SHADOW = 60.0  # max(R, G, B) below this (of 255) is a very dark shade (the smoky blacks)
+# The bare lid over the skin around it (vto_core.appearance.skin_colour of the 64 px lid frame, which holds the brow
+# bone, the temple and the cheek beside the eye), per channel, linear: medians over the 96 training faces of data/faces
+# where the right lid was found (interquartile spread 0.24-0.29: the crease's shadow and the lashes darken a lid); and
+# the median of the lid's core over its mean. What Better and Best put under the layer (photo_scene_fit).
+BARE_LID_RATIO = (0.574, 0.570, 0.546)
+LID_CORE_MEDIAN = (1.013, 0.994, 0.984)
 # px across a lid (along the face): narrower lids are too small to render onto. The astronaut's, in a 512 px portrait,
 # are 30; the 18 portraits' 29-141.
 MIN_LID_WIDTH = 24
@@ -63,7 +69,8 @@ class EyeShadowRenderer(ProductRenderer):
             return {LID_ATTRIBUTE: uvs[:, 1], ACROSS_ATTRIBUTE: 1.0 - 2.0 * uvs[:, 0]}
 
         return PhotoLayer("Eyelid", "eyeshadow", GROUP_NAME, eyeshadow_material, "Bare Lid", lid_mesh, MIN_LID_WIDTH,
-                          attributes)
+                          attributes, bare=lambda skin: np.asarray(skin, np.float64) * BARE_LID_RATIO,
+                          core_median=LID_CORE_MEDIAN)
 
     def nodes(self, material):
         from .eyeshadow import material_nodes

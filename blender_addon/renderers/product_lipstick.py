@@ -126,13 +126,16 @@ class LipstickRenderer(ProductRenderer):
     @functools.cached_property
     def photo_layer(self):
         """The lips as the photo scene renders them (blender_addon.renderers.tryon): the lips mesh of the face mesh."""
+        from vto_core.photo.bare_lips import bare_lips
         from vto_core.photo.tryon import lips_mesh
 
+        from ..matching.photo_scene_fit import CORE_MEDIAN
         from .nodes_lipstick import GROUP_NAME, lipstick_material
         from .scene_photo import PhotoLayer
 
         return PhotoLayer("Lips", "lipstick", GROUP_NAME, lipstick_material, "Bare Lips",
-                          lambda points, depth, region: lips_mesh(points, depth), MIN_LIPS_WIDTH)
+                          lambda points, depth, region: lips_mesh(points, depth), MIN_LIPS_WIDTH, bare=bare_lips,
+                          core_median=tuple(CORE_MEDIAN))
 
     def is_dark(self, values):
         return max(values["red"], values["green"], values["blue"]) < DARK_LIPSTICK

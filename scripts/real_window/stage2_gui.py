@@ -442,9 +442,17 @@ def script():
     with bpy.context.temp_override(window=win, area=props_area):
         bpy.ops.ed.undo_push(message="Eye shadow reference")
     props_area.tag_redraw()
-    yield 4.0
+    for _ in range(600):  # Better's modal fit (and the preview it starts) done
+        if not modal_operators():
+            break
+        yield 0.1
+    view3d = area_of("VIEW_3D")
+    xdo("mousemove", view3d.x + view3d.width // 2, window().height - (view3d.y + view3d.height // 2))
+    yield 4.0  # the pointer off the lips' Match: the button it hovered lets go
     x, y = yield from button_when_drawn(props_area, "eyes_before")
     eyes_defaults = eyes_inputs()
+    xdo("mousemove", x, y - 3)
+    yield 0.3
     xdo("mousemove", x, y)
     yield 0.5
     eyes_first, eyes_ms = yield from click_match(eyes_props, eyes_inputs, "eyes click 1")

@@ -263,6 +263,34 @@ def test_a_whole_portrait_is_read_at_its_lips(models, portrait, tmp_path, capsys
     assert not np.allclose([written[k] for k in SPEC.modelled], [whole_image[k] for k in SPEC.modelled], atol=1e-3)
 
 
+def test_a_whole_portrait_is_read_at_both_eyes_lids_and_covered_eyes_are_refused(portrait, tmp_path, capsys):
+    """`vto match` with the shipped eye-shadow encoder: both lids found, the JSON says so, the estimate is the mean of
+    the two eyes' readings; the eyes under sunglasses are one line, exit 2, nothing written."""
+    from blender_addon.matching.reference import read_reference
+    from blender_addon.shipped import MODELS
+    from vto_core.products import EYESHADOW
+
+    model = str(MODELS / "eyeshadow_encoder.onnx")
+    out = tmp_path / "params.json"
+    assert cli.run(["match", "--model", model, "--image", str(portrait), "--out-params", str(out)]) == 0
+    printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert printed["eyelids"]["how"] == "face" and printed["eyelids"]["views"] == 2 and "lips" not in printed
+    reference = read_reference("eyeshadow", {"image_path": str(portrait)})
+    expected = EncoderSession(model).predict_views([reference.images])[0]
+    written = parse_params(str(out), "eyeshadow")
+    assert all(abs(written[k] - expected[k]) < 1e-6 for k in EYESHADOW.spec.modelled)
+    whole = read_image(portrait)[0]
+    face = read_reference("lipstick", {"image_path": str(portrait)}).lips.landmarks
+    for region in EYESHADOW.face_regions:  # dark lenses over both eyes
+        (x0, y0), (x1, y1) = face[list(region.opening)].min(axis=0) - 8, face[list(region.opening)].max(axis=0) + 8
+        whole[int(y0):int(y1), int(x0):int(x1)] = (0.05, 0.05, 0.06)
+    write_image(tmp_path / "glasses.png", whole)
+    assert cli.run(["match", "--model", model, "--image", str(tmp_path / "glasses.png"), "--out-params",
+                    str(tmp_path / "none.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no eyelids found: they are hidden" in err[0] and not (tmp_path / "none.json").exists()
+
+
 def test_crop_and_mask_work_without_a_material_and_the_photos_light_is_taken_out(models, portrait, tmp_path):
     from vto_core.photo.photo_light import light_of, neutral_photo
 
