@@ -254,8 +254,7 @@ def picture(model: Path, worn: list, out: Path) -> str:
         bare = read_image(ROOT / face)[0][..., :3]
         values = estimate(model, path, "fast")[0]
         guess = tryon_product(EYESHADOW, bare, values, samples=TRYON_SAMPLES)
-        lids = np.concatenate([np.asarray(lid.outer, np.float64) for _, lid in find_regions(bare, EYESHADOW)])
-        view = around(lids, size)
+        view = around([np.asarray(lid.outer, np.float64) for _, lid in find_regions(bare, EYESHADOW)], size)
         rows.append(np.concatenate([view_cut(image, view, size) for image in (bare, read_image(path)[0], guess)], 1))
     write_image(out, np.concatenate(rows, 0))
     return (f"![faces | product | estimate]({out.name})\n\nEach held-out face bare, wearing a product, and wearing the "

@@ -35,11 +35,6 @@ LIFT_FLOOR = 0.02  # a product's ratio is divided out as at least this (a black 
 # 75 %: the landmarks move a pixel or two once the lips are coloured), so the comparison leaves out a band of this
 # many px inside the lips' edge. The lips are a few px thick in the frame: 2 px would leave a tenth of them.
 CORE_INSET = 1
-# The median of the lips' core over their whole mask's mean, per channel, in linear colour: medians over the 87
-# training faces of data/faces that wear no lipstick (spread 0.09-0.13). A median is what a product's lowered
-# highlights (vto_core.photo.tryon.lowered_highlights, above the 0.7 quantile) and a photo's clipped ones leave as it
-# was; the bare lips (vto_core.photo.bare_lips) are a whole mask's mean.
-CORE_MEDIAN = np.array([1.15, 1.09, 1.13])
 TRUST_SCALE = 0.5  # log colour: a pixel of the lips left 1.65 times off the bare lips' colour has half the trust
 
 
@@ -73,11 +68,11 @@ def lips_core(mask: np.ndarray) -> np.ndarray:
 
 
 def under_layer(frame: np.ndarray, soft: np.ndarray, core: np.ndarray, ratio: np.ndarray, bare: np.ndarray,
-                core_median=CORE_MEDIAN) -> tuple[np.ndarray, np.ndarray]:
+                core_median) -> tuple[np.ndarray, np.ndarray]:
     """What lies under the layer, and where the photo shows the layer: (the photo's frame (n, n, 3) linear with the
     product of `ratio` (n, n, 3, what Fast's estimate does to the lips) divided out inside the soft mask (n, n) and
     scaled per channel so that the median of its trusted pixels is what the `bare` lips' colour (3,) linear gives
-    (CORE_MEDIAN); the trust (n, n) in [0, 1] of each pixel of the lips' core (n, n)).
+    (times `core_median` (3,), the layer's: a bare core's median over its mean); the trust (n, n) in [0, 1] of each pixel of the lips' core (n, n)).
 
     Where the product lies, dividing it out leaves lips of about the bare lips' colour; where the lips found reach
     past the painted ones (skin, or lips the layer missed), it leaves a colour no lips have (bare lips divided by a

@@ -16,6 +16,11 @@ from .products import BoundSource, ProductRenderer
 LIPS_POOL = tuple(range(900001, 900025))
 MAX_TONE_RATIO = 4.0  # a source's skin tone is scaled (linear, per channel) by at most this either way
 DARK_LIPSTICK = 60.0  # max(R, G, B) below this (of 255) is a very dark shade
+# The median of the lips' core over their whole mask's mean, per channel, in linear colour: medians over the 87
+# training faces of data/faces that wear no lipstick (spread 0.09-0.13). A median is what a product's lowered
+# highlights (vto_core.photo.tryon.lowered_highlights, above the 0.7 quantile) and a photo's clipped ones leave as it
+# was; the bare lips (vto_core.photo.bare_lips) are a whole mask's mean.
+CORE_MEDIAN = (1.15, 1.09, 1.13)
 # px across the lips (along the face): narrower lips are too small to render onto (a product a few pixels across). The
 # astronaut's, in a 512 px portrait, are 48.
 MIN_LIPS_WIDTH = 40
@@ -129,13 +134,12 @@ class LipstickRenderer(ProductRenderer):
         from vto_core.photo.bare_lips import bare_lips
         from vto_core.photo.tryon import lips_mesh
 
-        from ..matching.photo_scene_fit import CORE_MEDIAN
         from .nodes_lipstick import GROUP_NAME, lipstick_material
         from .scene_photo import PhotoLayer
 
         return PhotoLayer("Lips", "lipstick", GROUP_NAME, lipstick_material, "Bare Lips",
                           lambda points, depth, region: lips_mesh(points, depth), MIN_LIPS_WIDTH, bare=bare_lips,
-                          core_median=tuple(CORE_MEDIAN))
+                          core_median=CORE_MEDIAN)
 
     def is_dark(self, values):
         return max(values["red"], values["green"], values["blue"]) < DARK_LIPSTICK

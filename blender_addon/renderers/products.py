@@ -3,7 +3,6 @@ declaration (vto_core.products): code above the renderers asks it, never the pro
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable
 
 import numpy as np
@@ -12,6 +11,8 @@ from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.products import Product, get_product, get_spec
 from vto_core.specs import RendererSpec
+
+from .sides import blender_side  # noqa: F401  (each product's side: its module's RENDERER)
 
 FIT_RES = 64  # px: the default-scene renders photo fits compare statistics on
 
@@ -132,13 +133,6 @@ class BoundSource:
     @property
     def mask(self) -> np.ndarray:
         return self._mask()
-
-
-def blender_side(product: Product | str) -> ProductRenderer:
-    """The Blender side of `product` (a declaration or a name): its module's RENDERER."""
-    product = get_product(product) if isinstance(product, str) else product
-    module = importlib.import_module(product.blender_module, __package__)
-    return module.RENDERER
 
 
 def render(renderer: str, values: dict[str, float], source, res: int = 64, samples: int = DEFAULT_SAMPLES,

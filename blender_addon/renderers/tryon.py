@@ -39,7 +39,7 @@ EDGE = 3  # px around a region's box: more than the soft mask reaches (vto_core.
 
 def photo_layer(product: Product | str) -> PhotoLayer:
     """The photo scene's layer of `product` (its Blender side's photo_layer); VtoError for a product without one."""
-    from .products import blender_side
+    from .sides import blender_side
 
     product = get_product(product) if isinstance(product, str) else product
     layer = getattr(blender_side(product), "photo_layer", None)
@@ -234,12 +234,15 @@ def tryon_lipstick(photo: np.ndarray, values: dict[str, float], crop: int | None
 def around_lips(lips, size: int) -> np.ndarray:
     """The view (2, 3) of a size x size square on a found region (the lips; an eye's lid) and around it (2.2 of its
     widths across, upright): what the previews show of a photo."""
-    return around(np.asarray(lips.outer, np.float64), size)
+    return around([np.asarray(lips.outer, np.float64)], size)
 
 
-def around(points: np.ndarray, size: int) -> np.ndarray:
-    """The view (2, 3) of a size x size square upright on points (K, 2) of a photo, 2.2 of their widths across."""
-    view, side = square_view((points.min(axis=0) + points.max(axis=0)) / 2, 2.2 * float(np.ptp(points[:, 0])), 0.0)
+def around(loops: list[np.ndarray], size: int) -> np.ndarray:
+    """The view (2, 3) of a size x size square upright on the found regions' outer loops [(K, 2), ...] of a photo:
+    2.2 widths of the widest across, or 1.25 of all of them together (both eyes, their brows)."""
+    points = np.concatenate(loops)
+    side = max(2.2 * max(float(np.ptp(loop[:, 0])) for loop in loops), 1.25 * float(np.ptp(points[:, 0])))
+    view, side = square_view((points.min(axis=0) + points.max(axis=0)) / 2, side, 0.0)
     view[:, :2] *= side / size
     return view
 
@@ -287,7 +290,7 @@ def tryon_view(photo: np.ndarray, values: dict[str, float], size: int, samples: 
     product = get_product(product) if isinstance(product, str) else product
     values = product.spec.check_values(values)
     targets = photo_regions(photo, product)
-    view = around(np.concatenate([np.asarray(t.lips.outer, np.float64) for t in targets]), size)
+    view = around([np.asarray(t.lips.outer, np.float64) for t in targets], size)
     photo = targets[0].photo
     height, width = photo.shape[:2]
     x, y, w, h = view_box(view, size, (height, width))

@@ -5,7 +5,7 @@ the window draws and handles the events in between.
 
 Lips: a whole portrait (the add-on finds the lips and reads the photo's light from her skin), Match (Fast) clicked,
 undone, clicked twice more, then Better. Eye shadow: the plane "Lid" made active, a whole portrait wearing eye shadow
-(the add-on finds both eyes' lids), Match (Fast) clicked, its Preview on Photo, undone, clicked again. Hair: a patch of the portrait's
+(the add-on finds both eyes' lids), Match (Fast) clicked, its Preview on Photo, undone, clicked again, then Better and Best. Hair: a patch of the portrait's
 hair, Match (Fast), undone; then Better chosen in the sidebar's Quality row (a real click on its button) and Match
 clicked: the modal fit runs. A main loop stalled for STALL_S seconds dumps every thread's Python stack into the log
 and exits."""
@@ -195,21 +195,23 @@ def click_match(props, inputs, name, wait=5.0, running_shot=None):
     return inputs(), ms
 
 
-def click_better(record, props, inputs, name, region):
-    """A real click on the hovered Match with Better chosen, in `name`'s panel (lips or hair): its values, reported
-    ms and estimate into `record` (or, where it wrote nothing, the error: recorded, not raised), the quality it ran
-    with, and the screenshot NAME_better of `region` after it."""
+def click_better(record, props, inputs, name, region, quality="BETTER"):
+    """A real click on the hovered Match with Better (or `quality`) chosen, in `name`'s panel: its values, reported
+    ms and estimate into `record` under that quality's name ('better', 'better_ms', 'better_estimate'; or, where it
+    wrote nothing, the error: recorded, not raised), the quality it ran with, and the screenshot NAME_better of `region`
+    after it."""
+    key = quality.lower()
     try:
-        better, better_ms = yield from click_match(props, inputs, f"{name} Better click", wait=120.0,
-                                                   running_shot=f"{name}_better_running")
-        record.update({"better": better, "better_ms": [better_ms], "better_estimate": props().last_estimate})
+        values, ms = yield from click_match(props, inputs, f"{name} {quality.title()} click", wait=120.0,
+                                            running_shot=f"{name}_{key}_running")
+        record.update({key: values, f"{key}_ms": [ms], f"{key}_estimate": props().last_estimate})
     except MatchFailed as exc:
-        record["better_error"] = str(exc)
-        RESULT["errors"].append(record["better_error"])
-        log(record["better_error"])
+        record[f"{key}_error"] = str(exc)
+        RESULT["errors"].append(record[f"{key}_error"])
+        log(record[f"{key}_error"])
     record["quality"] = props().quality
     yield 1.5
-    grab(f"{name}_better", region)
+    grab(f"{name}_{key}", region)
 
 
 def button_when_drawn(area, shot, seconds=15.0, settled=False):
@@ -296,10 +298,11 @@ def hair_found(path):
 
 
 def quality_buttons(region, shot):
-    """X11 centres of the Fast and Better buttons (three equal buttons, Fast selected in `shot`)."""
+    """X11 centres of the Fast, Better and Best buttons (three equal buttons, Fast selected in `shot`)."""
     x0, x1, y0, y1 = find_selected_enum(region, shot)
     width = x1 - x0 + 1
-    return {"FAST": ((x0 + x1) // 2, (y0 + y1) // 2), "BETTER": (x0 + width * 3 // 2, (y0 + y1) // 2)}
+    return {"FAST": ((x0 + x1) // 2, (y0 + y1) // 2), "BETTER": (x0 + width * 3 // 2, (y0 + y1) // 2),
+            "BEST": (x0 + width * 5 // 2, (y0 + y1) // 2)}
 
 
 def choose(buttons, quality, props, settle=0.4):
@@ -474,6 +477,15 @@ def script():
     eyes["ms"] = [eyes_ms, second_ms, third_ms]
     yield 1.0
     grab("eyes_matched", region_of(props_area))
+    # Better and Best, each chosen by a real click in the Quality row, then Match: the fit in the photo's own scene.
+    buttons = quality_buttons(region_of(props_area), "eyes_matched")
+    for quality in ("BETTER", "BEST"):
+        eyes[f"{quality.lower()}_chosen_by"] = yield from choose(buttons, quality, eyes_props)
+        eyes[f"{quality.lower()}_label"] = quality_label(eyes_props(), "eyeshadow")
+        x, y = yield from button_when_drawn(props_area, f"eyes_{quality.lower()}_chosen")
+        xdo("mousemove", x, y)
+        yield 0.5
+        yield from click_better(eyes, eyes_props, eyes_inputs, "eyes", region_of(props_area), quality)
     try:
         eyes["found"] = eyes_found(EYES_REF)
     except Exception as exc:  # noqa: BLE001  (recorded, not fatal: the screenshots show the outlines)

@@ -67,7 +67,8 @@ material = bpy.data.objects["Lips"].active_material
 report["match_op"] = sorted(bpy.ops.vto.match_from_photo(material=material.name, image_path=lips_png))
 (group,) = [n for n in material.node_tree.nodes if getattr(n, "node_tree", None) and n.node_tree.name == "VTO Lipstick"]
 report["written"] = {s.name: s.default_value for s in group.inputs if s.type == "VALUE"}
-# Eye shadow: a render of one eye, a new material from the generic button, Match with the shipped eye-shadow model.
+# Eye shadow: a render of one eye, a new material from the generic button, Match with the shipped eye-shadow model and
+# Find Eyelids off (a close-up of one eye has no face to find them in).
 eye_png = params.replace(".json", "_eye.png")
 report["render_eye"] = addon.run_cli(["render", "eyeshadow", "--params", "preset:Plum", "--res", "32", "--samples",
                                       "2", "--out", eye_png])
@@ -78,7 +79,7 @@ bpy.context.view_layer.objects.active = bpy.data.objects["Lid"]
 report["add_eyeshadow"] = sorted(bpy.ops.vto.add_material(product="eyeshadow"))
 shade = bpy.data.objects["Lid"].active_material
 report["match_eyeshadow"] = sorted(bpy.ops.vto.match_from_photo(target="EYESHADOW", material=shade.name,
-                                                                image_path=eye_png))
+                                                                image_path=eye_png, find_region=False))
 (shadow,) = [n for n in shade.node_tree.nodes if getattr(n, "node_tree", None) and n.node_tree.name == "VTO Eye Shadow"]
 report["written_eyeshadow"] = {s.name: s.default_value for s in shadow.inputs if s.type == "VALUE"}
 compat = __import__("bl_ext.user_default.vto_match.compat", fromlist=["compositor_tree"])

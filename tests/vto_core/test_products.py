@@ -97,8 +97,8 @@ def test_eye_shadow_is_a_material_on_both_eyes_lids():
     assert EYESHADOW.is_material and EYESHADOW.face_region is EYELIDS and EYESHADOW.region == "eyelids"
     assert EYESHADOW.face_regions == (EYELIDS, LEFT_EYELID) and LIPSTICK.face_regions == (LIPSTICK.face_region,)
     assert HAIR.face_regions == () and LEFT_EYELID.mirrored and not EYELIDS.mirrored  # the left eye is read flipped
-    assert EYESHADOW.tryon and EYESHADOW.photo_datasets and not EYESHADOW.fits_in_photo_scene  # Better/Best: not yet
-    assert EYESHADOW.fit.offered == ("FAST",) and EYESHADOW.photo_values({"red": 9.0}) == {"red": 9.0}
+    assert EYESHADOW.tryon and EYESHADOW.photo_datasets and EYESHADOW.fits_in_photo_scene  # lids in the photo's scene
+    assert EYESHADOW.fit.offered == QUALITIES and EYESHADOW.photo_values({"red": 9.0}) == {"red": 9.0}
     assert EYESHADOW.asset_library and not EYESHADOW.no_library  # its presets are materials, as the lipstick's
     assert 0.5 < EYELIDS.frame_share < 1.0 and EYELIDS.frame_share == LEFT_EYELID.frame_share
     right, left = EYELIDS.loops[0], LEFT_EYELID.loops[0]

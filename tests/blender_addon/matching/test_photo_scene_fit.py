@@ -19,6 +19,7 @@ from vto_core.imageio import read_image  # noqa: E402
 from vto_core.photo.lips_locator import DEFAULT_LENS, close_up  # noqa: E402
 from vto_core.photo.tryon import feathered  # noqa: E402
 from vto_core.presets import load_presets  # noqa: E402
+from blender_addon.renderers.product_lipstick import CORE_MEDIAN  # noqa: E402
 from vto_core.products import EYELIDS, LIPS, get_spec  # noqa: E402
 
 FACE = Path(__file__).resolve().parents[3] / "data" / "faces" / "nasa_william_oefelein.jpg"  # train split, bare lips
@@ -75,7 +76,7 @@ def test_the_layer_is_divided_out_where_it_lies_and_mistrusted_where_the_lips_fo
     ratio = np.broadcast_to(np.array([3.0, 0.6, 1.5], np.float32), (32, 32, 3)).copy()
     frame = bare * shading * ratio  # the product on the lips ...
     frame[18:22] = (bare * shading)[18:22]  # ... but for the lower rows, which the layer missed
-    under, trust = under_layer(frame.astype(np.float32), feathered(mask), lips_core(mask), ratio, bare)
+    under, trust = under_layer(frame.astype(np.float32), feathered(mask), lips_core(mask), ratio, bare, CORE_MEDIAN)
     core = lips_core(mask)
     assert trust[core & (np.arange(32)[:, None] < 17)].min() > 0.8 and trust[18:21, 5:27].max() < 0.2
     painted = core & (np.arange(32)[:, None] < 17)
@@ -89,11 +90,11 @@ def test_constant_black_and_hdr_frames_give_finite_layers(frame):
     mask[5:11, 3:13] = 1
     for ratio in (np.zeros((16, 16, 3)), np.full((16, 16, 3), 64.0)):
         under, trust = under_layer(frame.astype(np.float32), feathered(mask), lips_core(mask), ratio,
-                                   np.array([0.2, 0.08, 0.05]))
+                                   np.array([0.2, 0.08, 0.05]), CORE_MEDIAN)
         assert np.isfinite(under).all() and np.isfinite(trust).all() and (trust >= 0).all() and (trust <= 1).all()
     empty = np.zeros((16, 16), np.float32)
     under, trust = under_layer(frame.astype(np.float32), feathered(empty), lips_core(empty), np.ones((16, 16, 3)),
-                               np.array([0.2, 0.08, 0.05]))
+                               np.array([0.2, 0.08, 0.05]), CORE_MEDIAN)
     assert np.isfinite(under).all() and (trust == 0).all()
 
 

@@ -99,8 +99,7 @@ def test_the_previews_view_shows_both_eyes_with_the_whole_photo_try_on(astronaut
     from blender_addon.renderers.tryon import around
 
     shown, worn = tryon_view(astronaut, PRESETS["Plum"], 96, SAMPLES, 0, EYESHADOW)
-    lids = np.concatenate([np.asarray(lid.outer, np.float64) for _, lid in find_regions(astronaut, EYESHADOW)])
-    view = around(lids, 96)
+    view = around([np.asarray(lid.outer, np.float64) for _, lid in find_regions(astronaut, EYESHADOW)], 96)
     whole = tryon_product(EYESHADOW, astronaut, PRESETS["Plum"], samples=SAMPLES)
     assert np.array_equal(shown, view_cut(astronaut, view, 96))
     assert np.abs(worn - view_cut(whole, view, 96)).max() < 1e-6 and np.abs(worn - shown).max() > 0.05

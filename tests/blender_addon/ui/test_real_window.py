@@ -151,6 +151,19 @@ def test_eye_shadow_on_a_whole_portrait_matches_both_eyes_previews_and_undoes(ru
     assert (run.out / "eyes_matched_panel.png").stat().st_size > 1000
 
 
+def test_eye_shadow_better_and_best_chosen_by_clicks_fit_in_the_photos_scene(run):
+    """Eye shadow is offered all three qualities; Better and Best, each chosen by a click in the Quality row, run the
+    modal fit on the photo's right lid and write other values than Fast's, each in its time."""
+    eyes = run.part("eyes")
+    for quality in ("better", "best"):
+        assert eyes[f"{quality}_chosen_by"] in ("click", "property")
+        assert f"{quality}_error" not in eyes, eyes[f"{quality}_error"]
+        assert eyes[f"{quality}_label"].startswith(f"{quality.title()}: ")
+        assert set(run.part("eyes", quality)) == set(eyes["third"]) and eyes[quality] != eyes["third"]
+        assert max(eyes["ms"][1:]) < eyes[f"{quality}_ms"][0] < 120_000.0
+    assert eyes["quality"] == "BEST" and (run.out / "eyes_best_panel.png").stat().st_size > 1000
+
+
 def test_the_lips_are_found_in_the_whole_portrait(run):
     """The installed extension's own reference module finds the astronaut's lips where a hand drew them."""
     found = run.part("lips", "found")
