@@ -2,7 +2,7 @@
 the estimate, and a picture (issue "Eye shadow from a portrait").
 
     python -m benchmarks.bench_eyeshadow_photos [--model NEW.onnx] [--compare OLD.onnx ...]
-        [--parts found,roundtrip,moves,picture] [--faces 13] [--products 16] [--move-faces 4]
+        [--parts found,speed,roundtrip,moves,picture] [--faces 13] [--products 16] [--move-faces 4]
         [--qualities fast,better,best] [--best-faces 2]
 
 found: every portrait of benchmarks/photos and every held-out face of data/faces: both eyes' lids found (PhotoReader
@@ -14,6 +14,7 @@ found: every portrait of benchmarks/photos and every held-out face of data/faces
     on the right eye's lid, Best on the first --best-faces faces); truth and estimate rendered on default eye sources 0-7 (64 px,
     16 spp): CIEDE2000 between their apparent colours (the median over the sources of the lid's mean colour), the
     product L* slope (estimate on truth, over every look), and the time.
+speed: Fast and the panel's preview on a 1 MP portrait.
 (c) moves: the first --move-faces faces' looks of 4 products re-lit (two white balances, +-0.7 EV), tilted (-45..45
     degrees) and stored in the seven other EXIF orientations; CIEDE2000 of each estimate's apparent colour to the one of
     the photo as it is.
@@ -131,6 +132,33 @@ def found_part() -> str:
         f"largest {max(per_mp):.1f} ms (goal <= 20 at 1 MP).",
         f"Both eyes covered, on the {tried} portraits with a face: sunglasses refused on {refused['sunglasses']}, "
         f"a hand (the cheek moved over the eyes) on {refused['hand']}."])
+
+
+def speed_part(model: Path) -> str:
+    """Fast (the whole `match` in one process, warm) and the panel's preview (tryon_view, 160 px, 8 spp) on a 1 MP
+    portrait, three times each."""
+    from blender_addon.matching.match import match
+    from blender_addon.renderers.products import blender_side
+    from vto_core.imageio import read_image
+    from vto_core.presets import load_presets
+    from vto_core.products import EYESHADOW
+
+    path = PHOTOS.parent / "nasa_linda_godwin.jpg"  # 871 x 1200: about 1 MP
+    photo = read_image(path)[0][..., :3]
+    rows = []
+    for what, run in (("Fast (`match`: read, find, encoder)", lambda: match(str(model), str(path))),
+                      ("preview (`tryon_view`, both lids, 160 px, 8 spp)",
+                       lambda: blender_side(EYESHADOW).tryon_view(photo, load_presets("eyeshadow")["Plum"], 160, 8, 0))):
+        times = []
+        for _ in range(3):
+            started = time.perf_counter()
+            run()
+            times.append(time.perf_counter() - started)
+        rows.append([what, f"{times[0]:.2f}", f"{min(times[1:]):.2f}-{max(times[1:]):.2f}"])
+    return "\n".join([f"On Linda Godwin's portrait ({photo.shape[1]}x{photo.shape[0]}, {photo.size / 3e6:.2f} MP), one "
+                      "process, seconds:", "", table(["step", "first", "then"], rows),
+                      "", "Goals: Fast <= 0.04 s warm (in the panel the photo and its face are kept between clicks: "
+                      "the real window's times are in docs/panel.md), a preview <= 3 s at 1 MP."])
 
 
 def tried_on(work: Path, faces: int, products: int) -> list[tuple[dict, str, Path]]:
@@ -255,8 +283,9 @@ def picture(model: Path, worn: list, out: Path) -> str:
         values = estimate(model, path, "fast")[0]
         guess = tryon_product(EYESHADOW, bare, values, samples=TRYON_SAMPLES)
         view = around([np.asarray(lid.outer, np.float64) for _, lid in find_regions(bare, EYESHADOW)], size)
-        rows.append(np.concatenate([view_cut(image, view, size) for image in (bare, read_image(path)[0], guess)], 1))
-    write_image(out, np.concatenate(rows, 0))
+        rows.append(np.concatenate([view_cut(image[..., :3], view, size)[..., :3]
+                                    for image in (bare, read_image(path)[0], guess)], 1))
+    write_image(out, np.ascontiguousarray(np.concatenate(rows, 0), np.float32))
     return (f"![faces | product | estimate]({out.name})\n\nEach held-out face bare, wearing a product, and wearing the "
             f"new model's Fast estimate of it (both eyes, {TRYON_SAMPLES} spp).")
 
@@ -265,7 +294,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", type=Path, default=MODEL)
     parser.add_argument("--compare", type=Path, nargs="*", default=None)
-    parser.add_argument("--parts", default="found,roundtrip,moves,picture")
+    parser.add_argument("--parts", default="found,speed,roundtrip,moves,picture")
     parser.add_argument("--faces", type=int, default=13)
     parser.add_argument("--products", type=int, default=len(PRODUCTS))
     parser.add_argument("--move-faces", type=int, default=4)
@@ -285,6 +314,8 @@ def main(argv: list[str] | None = None) -> None:
     renders = Renders("eyeshadow")
     if "found" in parts:
         write_section(RESULT, "found", found_part())
+    if "speed" in parts:
+        write_section(RESULT, "speed", speed_part(args.model))
     worn = tried_on(args.work, args.faces, args.products) if set(parts) & {"roundtrip", "moves", "picture"} else []
     if "roundtrip" in parts:
         write_section(RESULT, "roundtrip", roundtrip(models, worn, renders, args.qualities.split(","),

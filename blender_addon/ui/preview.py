@@ -1,4 +1,4 @@
-"""The panel's *Preview on Photo*: the reference photo's lips beside the material's current values tried on them
+"""The panel's *Preview on Photo*: the reference photo's lips (eyes) beside the material's current values tried on them
 (blender_addon.renderers.tryon). Made after Match and on request, never on a slider move; a preview image only,
 so nothing in the .blend changes and undo is untouched."""
 
@@ -37,16 +37,19 @@ def compose(photo: np.ndarray, product, values: dict[str, float]) -> np.ndarray:
 
 def refresh(material, photo: np.ndarray | None = None) -> tuple[int, str]:
     """Make the material's preview now, on `photo` (H, W, 3) or else the panel's reference: (its icon id, '') or (0,
-    the one line saying why there is none)."""
+    the one line saying why there is none). Kept by the material's name, read before the renders: a reference to the
+    material that the render leaves stale (seen once on bpy 5.0.1 in the whole suite) cannot fail the Match that
+    asked for it."""
+    name = material.name
     try:
         photo = reference_pixels(material.vto_match) if photo is None else photo
         picture = compose(photo, *material_values(material))
     except Exception as exc:  # VtoError, or a render that failed: the panel says why, Match is not undone
-        _made[material.name] = (0, failure_line(exc), None)
-        return shown(material)
+        _made[name] = (0, failure_line(exc), None)
+        return _made[name][:2]
     # headless, Blender gives preview images icon id 0: the picture is kept for what reads it
-    _made[material.name] = (preview_icon(f"tryon:{material.name}", picture), "", picture)
-    return shown(material)
+    _made[name] = (preview_icon(f"tryon:{name}", picture), "", picture)
+    return _made[name][:2]
 
 
 def shown(material) -> tuple[int, str]:
