@@ -16,8 +16,6 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from vto_core.products import FaceRegion
-
 from ..compat import enable_nodes
 
 CAMERA_HEIGHT = 1000.0  # frame px above the region: far beyond its depth

@@ -112,9 +112,6 @@ class PhotoRegion:
         self.layer = self.layer or photo_layer("lipstick")
 
 
-PhotoLips = PhotoRegion  # the lipstick's (the photo scene fit and the datasets name it so)
-
-
 def photo_region(photo: np.ndarray, found, region: FaceRegion, layer: PhotoLayer, n: int | None = None,
                  light=None) -> PhotoRegion:
     """A found face region (LipsFound, checked by to_render) of the photo (H, W, 3) display framed at n x n px (None:
@@ -168,9 +165,6 @@ def set_photo_region(target: PhotoRegion, samples: int, seed: int) -> bpy.types.
     set_light_and_region(scene, layer, target.cast, albedo, (albedo if skin is None else skin) / target.cast)
     configure_cycles(scene, res, samples, seed)
     return scene
-
-
-set_photo_lips = set_photo_region  # the lipstick's name (the photo scene fit)
 
 
 def render_size(target: PhotoRegion) -> int:
