@@ -1,5 +1,6 @@
 """Shared fixtures and markers: Blender tests need bpy, torch tests need torch."""
 
+import gc
 import importlib.util
 import os
 import tempfile
@@ -81,3 +82,13 @@ def _render(tmp_path_factory, name, n, params, *extra, renderer="lipstick"):
     assert cmd_dataset([renderer, "--out", str(out), "--n", str(n), "--seed", "11", "--res", "16", "--samples", "2",
                         "--params", params, "--quiet", *extra]) == 0
     return out
+
+
+@pytest.fixture(autouse=True)
+def _collected_generators():
+    """A fit's generator that a test leaves half run removes its scratch data (blender_addon.scratch.scratch_data's
+    finally) whenever the garbage collector reaches it, with every data-block made since it began: a later test's
+    material, mid-Match. Collected at the end of the test that left it."""
+    yield
+    if HAS_BPY:
+        gc.collect()

@@ -188,6 +188,9 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
     def done(self, job, stored, values) -> set:
         """Write the values (targets checked again), remember them for the panel, report one line."""
         result = job.finish(values)
+        if stored is not None:  # looked up again: a reference taken before the renders can be left stale by them
+            target = job.target()
+            stored = getattr(target, "vto_match" if job.product.is_material else "vto_hair_match", None)
         for warning in job.warnings:
             self.report({"WARNING"}, warning)
         for note in job.notes:
@@ -268,6 +271,9 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
     def stop(self, context) -> None:
         context.window_manager.event_timer_remove(self._timer)
         context.window_manager.progress_end()
+        # Its scratch data (the default scenes a fit renders) goes now: a generator left to the garbage collector would
+        # remove, whenever it is collected, every data-block made since it began, the artist's included.
+        self._steps.close()
 
 
 BLENDER_JOBS = ("RENDER_PREVIEW", "RENDER", "COMPOSITE")  # bpy.app.is_job_running's types that render in a thread
