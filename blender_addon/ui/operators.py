@@ -188,9 +188,6 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
     def done(self, job, stored, values) -> set:
         """Write the values (targets checked again), remember them for the panel, report one line."""
         result = job.finish(values)
-        if stored is not None:  # looked up again: a reference taken before the renders can be left stale by them
-            target = job.target()
-            stored = getattr(target, "vto_match" if job.product.is_material else "vto_hair_match", None)
         for warning in job.warnings:
             self.report({"WARNING"}, warning)
         for note in job.notes:

@@ -37,19 +37,16 @@ def compose(photo: np.ndarray, product, values: dict[str, float]) -> np.ndarray:
 
 def refresh(material, photo: np.ndarray | None = None) -> tuple[int, str]:
     """Make the material's preview now, on `photo` (H, W, 3) or else the panel's reference: (its icon id, '') or (0,
-    the one line saying why there is none). Kept by the material's name, read before the renders: a reference to the
-    material that the render leaves stale (seen once on bpy 5.0.1 in the whole suite) cannot fail the Match that
-    asked for it."""
-    name = material.name
+    the one line saying why there is none)."""
     try:
         photo = reference_pixels(material.vto_match) if photo is None else photo
         picture = compose(photo, *material_values(material))
     except Exception as exc:  # VtoError, or a render that failed: the panel says why, Match is not undone
-        _made[name] = (0, failure_line(exc), None)
-        return _made[name][:2]
+        _made[material.name] = (0, failure_line(exc), None)
+        return shown(material)
     # headless, Blender gives preview images icon id 0: the picture is kept for what reads it
-    _made[name] = (preview_icon(f"tryon:{name}", picture), "", picture)
-    return _made[name][:2]
+    _made[material.name] = (preview_icon(f"tryon:{material.name}", picture), "", picture)
+    return shown(material)
 
 
 def shown(material) -> tuple[int, str]:
