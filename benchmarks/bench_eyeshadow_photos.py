@@ -2,7 +2,7 @@
 the estimate, and a picture (issue "Eye shadow from a portrait").
 
     python -m benchmarks.bench_eyeshadow_photos [--model NEW.onnx] [--compare OLD.onnx ...]
-        [--parts found,speed,roundtrip,moves,picture] [--faces 13] [--products 16] [--move-faces 4]
+        [--parts found,speed,roundtrip,made_up,moves,picture] [--faces 13] [--products 16] [--move-faces 4]
         [--qualities fast,better,best] [--best-faces 2]
 
 found: every portrait of benchmarks/photos and every held-out face of data/faces: both eyes' lids found (PhotoReader
@@ -15,6 +15,9 @@ found: every portrait of benchmarks/photos and every held-out face of data/faces
     16 spp): CIEDE2000 between their apparent colours (the median over the sources of the lid's mean colour), the
     product L* slope (estimate on truth, over every look), and the time.
 speed: Fast and the panel's preview on a 1 MP portrait.
+(b) made_up: real made-up eyes (benchmarks/photos/made_up_lids.json, each lid's shadow outlined by hand): each quality's
+    estimate worn on the lid as Better and Best see it (the photo's light, the bare lid from the skin beside it) against
+    the photo's mean colour inside the outline, beside no product and the mean preset.
 (c) moves: the first --move-faces faces' looks of 4 products re-lit (two white balances, +-0.7 EV), tilted (-45..45
     degrees) and stored in the seven other EXIF orientations; CIEDE2000 of each estimate's apparent colour to the one of
     the photo as it is.
@@ -43,6 +46,7 @@ ROOT = Path(__file__).resolve().parent.parent
 PHOTOS = ROOT / "benchmarks" / "photos" / "photos.json"
 MODEL = ROOT / "blender_addon" / "models" / "eyeshadow_encoder.onnx"
 RESULT = "eyeshadow_photos"  # benchmarks/results/eyeshadow_photos.md
+MADE_UP = ROOT / "benchmarks" / "photos" / "made_up_lids.json"  # part (b): real made-up lids, outlined by hand
 PRODUCTS = ("Vanilla Bone", "Soft Beige", "Warm Taupe", "Mocha Brown", "Espresso", "Jet Black", "Charcoal Smoke",
             "Navy Night", "Deep Teal", "Emerald", "Plum", "Royal Purple", "Champagne", "Gold Leaf", "Bronze",
             "Silver Glitter")
@@ -229,6 +233,87 @@ def roundtrip(models: dict[str, Path], worn: list, renders: Renders, qualities: 
         table(["product", "truth L*", *labels], product_rows)])
 
 
+def lid_colours(photo: np.ndarray, found, hand: np.ndarray, looks: dict[str, dict[str, float]]) -> dict[str, np.ndarray]:
+    """The mean display colour (3,) inside a hand-drawn lid polygon `hand` (K, 2 photo px) of the photo, and of each
+    look worn on this lid as Better and Best see it (the photo's light, the bare lid from the skin beside it:
+    PhotoLayer.bare; blender_addon.matching.photo_scene_fit), 64 px, TRYON_SAMPLES spp: {"photo" | look: colour}."""
+    from blender_addon.matching.photo_scene_fit import scene_target
+    from blender_addon.renderers.scene_photo import set_bare
+    from blender_addon.renderers.tryon import render_look, render_size, set_photo_region
+    from vto_core.appearance import skin_colour
+    from vto_core.colour import linear_to_srgb, srgb_to_linear
+    from vto_core.photo.face_reader import apply_matrix, polygon_mask
+    from vto_core.photo.tryon import composite, feathered, worn_over_bare
+    from vto_core.products import get_spec
+
+    target = scene_target(photo, found, 64)
+    assert render_size(target) == target.n  # the render and the frame share their pixels
+    inside = polygon_mask(apply_matrix(target.to_frame, hand), 0, 0, target.n, target.n) & (target.mask > 0.5)
+    spec, layer = get_spec("eyeshadow"), target.layer
+    predicted = np.asarray(layer.bare(skin_colour(target.frame, target.mask)), np.float32)
+    scene = set_photo_region(target, TRYON_SAMPLES, 0)
+    set_bare(layer, predicted / target.cast)
+    bare = render_look(scene, spec.full_values({"opacity": 0.0}), layer)
+    soft = feathered(target.mask)
+    colours = {"photo": srgb_to_linear(target.frame)[inside].mean(axis=0)}
+    for name, values in looks.items():
+        values = spec.full_values(values)
+        worn = composite(np.broadcast_to(predicted, bare.shape), worn_over_bare(bare, render_look(scene, values, layer)),
+                         soft, values["opacity"])
+        colours[name] = worn[inside].mean(axis=0)
+    return {name: linear_to_srgb(np.clip(colour, 0.0, 1.0)) for name, colour in colours.items()}
+
+
+def made_up(model: Path, qualities: list[str], out: Path) -> str:
+    """Part (b): real made-up eyes (MADE_UP: hand-drawn lid polygons): CIEDE2000 of each estimate worn on the lid (as
+    Better and Best see it) to the photo's lid colour, beside no product and the mean preset (one answer for every
+    photo), and a picture at `out`: each photo's right eye | each quality's estimate on the default eye."""
+    from blender_addon.renderers.products import render
+    from blender_addon.renderers.tryon import around
+    from blender_addon.shipped import photo_reader
+    from vto_core.imageio import read_image, write_image
+    from vto_core.photo.framing import view_cut
+    from vto_core.presets import load_presets, preset_matrix
+    from vto_core.products import EYESHADOW, get_spec
+
+    spec = get_spec("eyeshadow")
+    mean = spec.values(spec.denormalise(preset_matrix(spec, load_presets("eyeshadow")).mean(axis=0)))
+    notes = json.loads(MADE_UP.read_text())
+    errors, rows, pictures, size = {}, [], [], 128
+    for entry in notes["photos"]:
+        path = ROOT / entry["file"]
+        photo = read_image(path)[0][..., :3]
+        looks = {"no product": {"opacity": 0.0}, "mean preset": mean,
+                 **{quality: estimate(model, path, quality)[0] for quality in qualities}}
+        found, _ = photo_reader().locate_regions(EYESHADOW, photo)
+        view = around([np.asarray(found[0][1].outer, np.float64)], size)
+        pictures.append(np.concatenate([view_cut(photo, view, size)[..., :3]] + [
+            render("eyeshadow", spec.check_values(spec.full_values(looks[quality])), 1, size, TRYON_SAMPLES, 0)
+            for quality in qualities], 1))
+        for (region, where), side in zip(found, ("right", "left")):
+            colours = lid_colours(photo, (region, where), np.asarray(entry[side], np.float64), looks)
+            row = [f"{Path(entry['file']).stem} {side}", entry["shadow"],
+                   " ".join(f"{c:.0f}" for c in 255 * colours["photo"])]
+            for name in looks:
+                errors.setdefault(name, []).append(delta_e(colours["photo"], colours[name]))
+                row.append(f"{errors[name][-1]:.1f}")
+            rows.append(row)
+    names = list(errors)
+    write_image(out, np.ascontiguousarray(np.concatenate(pictures, 0), np.float32))
+    return "\n".join([
+        f"{len(notes['photos'])} London Set portraits wearing eye shadow (CC BY 4.0, DeBruine & Jones 2017; "
+        "benchmarks/photos/made_up_lids.json: each lid's shadow outlined by hand, and each photo's split: 032 is a "
+        "training person, her lids were under sampled shades in the face looks). Each estimate (`vto match` on the "
+        "whole portrait) is worn on each lid as Better and Best see it: the photo's light, the bare lid from the skin "
+        f"beside it (64 px, {TRYON_SAMPLES} spp); CIEDE2000 of its mean colour inside the hand-drawn polygon to the "
+        "photo's there. 'No product' is the bare lid alone: what there is to explain.", "",
+        table(["lid", "shadow", "photo sRGB", *[f"{name} CIEDE2000" for name in names]], rows), "",
+        table(["", *names], [["median", *[f"{np.median(errors[name]):.2f}" for name in names]]]), "",
+        f"![made-up eyes | estimates on the default eye]({out.name})", "",
+        f"Each photo's right eye beside its estimates ({', '.join(qualities)}) worn on the default eye (source 1): "
+        "what an artist's character would wear."])
+
+
 def moves(model: Path, worn: list, work: Path, faces: int, renders: Renders) -> str:
     """Part (c): CIEDE2000 of the estimate of each re-lit, tilted and EXIF-turned photo to the photo's as it is."""
     from vto_core.imageio import read_image, write_image
@@ -294,7 +379,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", type=Path, default=MODEL)
     parser.add_argument("--compare", type=Path, nargs="*", default=None)
-    parser.add_argument("--parts", default="found,speed,roundtrip,moves,picture")
+    parser.add_argument("--parts", default="found,speed,roundtrip,made_up,moves,picture")
     parser.add_argument("--faces", type=int, default=13)
     parser.add_argument("--products", type=int, default=len(PRODUCTS))
     parser.add_argument("--move-faces", type=int, default=4)
@@ -320,6 +405,8 @@ def main(argv: list[str] | None = None) -> None:
     if "roundtrip" in parts:
         write_section(RESULT, "roundtrip", roundtrip(models, worn, renders, args.qualities.split(","),
                                                      args.best_faces))
+    if "made_up" in parts:
+        write_section(RESULT, "made_up", made_up(args.model, args.qualities.split(","), RESULTS / "eyeshadow_made_up.png"))
     if "moves" in parts:
         write_section(RESULT, "moves", moves(args.model, worn, args.work, args.move_faces, renders))
     if "picture" in parts:

@@ -68,6 +68,7 @@ def read_back(path: Path, model: Path, quality: str) -> dict[str, float]:
 def looks(faces: list[dict], args, cache: Path) -> list[dict]:
     """One row per face and product: the truth's and each method's estimate and apparent CIELAB; cached."""
     from blender_addon.renderers.tryon import tryon_lipstick
+    from vto_core.dataset import file_digest
     from vto_core.imageio import read_image, write_image
     from vto_core.presets import load_presets
 
@@ -78,6 +79,8 @@ def looks(faces: list[dict], args, cache: Path) -> list[dict]:
             row = json.loads(line)
             done[row["face"], row["product"]] = row
     truth_lab = {name: apparent_lab(presets[name]) for name in PRODUCTS}
+    # an estimate is kept with its encoder's digest: a method read by another file (a new shipped one) is read again
+    digests = {path: file_digest(path) for path in {MODEL, *(Path(model) for _, model in args.compare)}}
     rows = []
     worn_dir = cache.with_suffix("")  # the tried-on photos, beside the cache
     worn_dir.mkdir(parents=True, exist_ok=True)
@@ -94,7 +97,8 @@ def looks(faces: list[dict], args, cache: Path) -> list[dict]:
             methods.update({f"fast ({label})": (Path(model), "fast") for label, model in args.compare})
             row = done.get(key, {"face": record["file"], "group": record["group"], "product": name,
                                  "truth": truth_lab[name].tolist(), "estimates": {}})
-            todo = [m for m in methods if m not in row["estimates"]]
+            todo = [m for m, (model, _) in methods.items() if m not in row["estimates"]
+                    or row["estimates"][m].get("model", digests[model]) != digests[model]]  # none kept: legacy rows
             if todo:
                 worn = worn_dir / f"{Path(record['file']).stem}_{name.replace(' ', '_')}.png"
                 if not worn.is_file():  # the try-on is seeded: a look's photo is the same in every run
@@ -103,7 +107,8 @@ def looks(faces: list[dict], args, cache: Path) -> list[dict]:
                     write_image(worn, tryon_lipstick(photo, presets[name], samples=SAMPLES))
                 for method in todo:
                     values = read_back(worn, *methods[method])
-                    row["estimates"][method] = {"values": values, "lab": apparent_lab(values).tolist()}
+                    row["estimates"][method] = {"values": values, "lab": apparent_lab(values).tolist(),
+                                                "model": digests[methods[method][0]]}
                 with cache.open("a") as out:
                     out.write(json.dumps(row) + "\n")
             rows.append(row)

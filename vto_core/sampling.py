@@ -134,12 +134,35 @@ def _wrap_offset(delta: np.ndarray) -> np.ndarray:
     return (delta + 0.5) % 1.0 - 0.5
 
 
+@dataclass(frozen=True)
+class PresetKernels:
+    """Each preset with a normal of width `width` about it (a kernel density): the presets' own spread kept, where
+    one normal fitted on them puts its mass at their middle (lipstick: 19 % of the presets are darker than L* 20,
+    2 % of that normal's draws)."""
+
+    presets: np.ndarray  # (n, m) in [0, 1]
+    width: float
+    wraps: np.ndarray  # (m,) bool
+
+    def draw(self, rng: np.random.Generator) -> np.ndarray:
+        """A preset drawn at random, moved by N(0, width^2) per value; wrapping values taken mod 1, the others
+        reflected back into [0, 1]: (m,)."""
+        moved = self.presets[rng.integers(len(self.presets))] + rng.normal(0.0, self.width, self.presets.shape[1])
+        reflected = 1.0 - np.abs(1.0 - np.abs(moved))
+        return np.where(self.wraps, moved % 1.0, np.clip(reflected, 0.0, 1.0))
+
+
 class ParamSampler:
     """Deterministic sampler: sample i is a pure function of (seed, i)."""
 
-    def __init__(self, spec: RendererSpec, unit_presets: np.ndarray | None, uniform_ratio: float = 0.5, seed: int = 0):
+    def __init__(self, spec: RendererSpec, unit_presets: np.ndarray | None, uniform_ratio: float = 0.5, seed: int = 0,
+                 kernel: float = 0.0):
+        """kernel: 0 draws the non-uniform share from one normal fitted on the presets (the paper's); above 0, from
+        PresetKernels of that width (unit range)."""
         if not 0.0 <= uniform_ratio <= 1.0:
             raise VtoError(f"uniform_ratio must be in [0, 1], got {uniform_ratio}")
+        if not 0.0 <= kernel <= 0.5:
+            raise VtoError(f"the preset kernel's width must be in [0, 0.5], got {kernel}")
         if unit_presets is None and uniform_ratio < 1.0:
             raise VtoError("sampling from presets needs presets; pass uniform_ratio=1 to sample uniformly")
         if seed < 0:
@@ -147,7 +170,11 @@ class ParamSampler:
         self.spec = spec
         self.seed = int(seed)
         self.uniform_ratio = float(uniform_ratio)
-        self.normal = PresetNormal.fit(spec, unit_presets) if uniform_ratio < 1.0 else None
+        self.normal = None
+        if uniform_ratio < 1.0:
+            wraps = np.array([p.wraps for p in spec.modelled_params])
+            self.normal = (PresetKernels(np.asarray(unit_presets, np.float64), kernel, wraps) if kernel > 0
+                           else PresetNormal.fit(spec, unit_presets))
 
     def _rng(self, index: int, stream: int, *extra: int) -> np.random.Generator:
         if index < 0:

@@ -59,6 +59,12 @@ def cmd_dataset(argv: list[str]) -> int:
                         help="write no source image X (lipstick: render none): half the renders of a look, for "
                              "encoder data trained with the graphics loss only (the imitator needs X)")
     parser.add_argument("--uniform-ratio", type=float, default=0.5, help="share of uniform draws vs the preset fit")
+    parser.add_argument("--preset-kernel", type=float, default=0.0,
+                        help="0: the preset fit is one normal on the presets (the paper's); above 0, a normal of this "
+                             "width (unit range) about each preset, which keeps the dark and light ends the presets "
+                             "have")
+    parser.add_argument("--without-presets", default="",
+                        help="comma-separated presets the sampler leaves out (a benchmark's products, kept unseen)")
     parser.add_argument("--source-folder", default=None, help="hair: photos with <name>_mask beside them")
     parser.add_argument("--looks-per-source", type=int, default=1,
                         help="hair, default scene: this many consecutive looks share one source render (the stage "
@@ -106,7 +112,7 @@ def cmd_dataset(argv: list[str]) -> int:
     job = DatasetJob(args.renderer, args.out, args.n, args.seed, args.res, args.samples, params, args.sensitivity,
                      args.uniform_ratio, args.source_folder, scene, args.lighting, not args.no_source,
                      tuple(name for name in args.vary.split(",") if name), args.looks_per_source, args.masks,
-                     args.photos)
+                     args.photos, args.preset_kernel, tuple(name for name in args.without_presets.split(",") if name))
     indices = shard_range(job.n, shard)
     if args.worker is not None:  # one of run_workers' processes: its share of the shard, then exit
         run_in_process(job, worker_indices(indices, parse_shard(args.worker)), args.limit, quiet=True)

@@ -49,12 +49,20 @@ class DatasetJob:
     looks_per_source: int = 1  # hair, default scene: consecutive looks share one source render (cached on disk)
     masks: bool = False  # lipstick, default scene: also write the lips mask (hair always writes its hair mask)
     photos: str | None = None  # try the looks on these portraits' face regions (photo_looks) instead
+    preset_kernel: float = 0.0  # > 0: draw about each preset (sampling.PresetKernels) instead of one normal on them
+    without_presets: tuple[str, ...] = ()  # presets the sampler leaves out (a benchmark's products, kept unseen)
     spec: RendererSpec = field(init=False)
 
     @property
     def product(self) -> Product:
         """The declaration of the job's product."""
         return get_product(self.renderer)
+
+    @property
+    def sampled_presets(self) -> dict[str, dict[str, float]]:
+        """The product's presets the sampler draws about (all but without_presets)."""
+        return {name: values for name, values in load_presets(self.renderer).items()
+                if name not in self.without_presets}
 
     def __post_init__(self):
         if self.n < 1:
@@ -73,6 +81,14 @@ class DatasetJob:
             raise VtoError(f"--source-folder {self.source_folder} is not a folder")
         self.spec = get_spec(self.renderer, self.params)
         product = self.product
+        if not 0.0 <= self.preset_kernel <= 0.5:
+            raise VtoError(f"--preset-kernel must be in [0, 0.5], got {self.preset_kernel}")
+        self.without_presets = tuple(self.without_presets)
+        unknown = sorted(set(self.without_presets) - set(load_presets(self.renderer)))
+        if unknown:
+            raise VtoError(f"--without-presets: no {self.renderer} preset named {', '.join(unknown)}")
+        if len(self.sampled_presets) < 2:
+            raise VtoError("--without-presets leaves fewer than 2 presets to sample from")
         self.vary = tuple(self.vary)
         for name in self.vary:
             param = self.spec.by_name.get(name)
@@ -118,6 +134,12 @@ class DatasetJob:
             del settings["looks_per_source"]
         if not self.masks:  # likewise
             del settings["masks"]
+        if not self.preset_kernel:  # likewise
+            del settings["preset_kernel"]
+        if self.without_presets:  # likewise
+            settings["without_presets"] = list(self.without_presets)
+        else:
+            del settings["without_presets"]
         del settings["photos"]
         if self.photos is not None:  # the faces themselves, by name and content: a folder's path says little
             from vto_core.dataset import file_digest
@@ -166,7 +188,8 @@ class SampleRenderer:
     def __init__(self, job: DatasetJob):
         self.job = job
         spec = job.spec
-        self.sampler = ParamSampler(spec, preset_matrix(spec, load_presets(job.renderer)), job.uniform_ratio, job.seed)
+        self.sampler = ParamSampler(spec, preset_matrix(spec, job.sampled_presets), job.uniform_ratio, job.seed,
+                                    job.preset_kernel)
         self.photos = None
         self.user_scene = None
         self.photo_looks = None

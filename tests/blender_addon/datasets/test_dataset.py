@@ -157,6 +157,8 @@ def test_two_workers_make_the_same_files(tmp_path):
     (["--n", "4", "--source-folder", "/no/such/folder"], "is not a folder"),
     (["--n", "4", "--params", "red,gloss", "--vary", "red"], "--vary takes unmodelled lipstick inputs"),
     (["--n", "4", "--vary", "shimmer"], "--vary takes unmodelled lipstick inputs"),
+    (["--n", "4", "--preset-kernel", "0.7"], "--preset-kernel must be in [0, 0.5]"),
+    (["--n", "4", "--without-presets", "Classic Red,No Such Shade"], "no lipstick preset named No Such Shade"),
 ])
 def test_bad_arguments_are_clear_errors_and_write_nothing(tmp_path, capsys, argv, message):
     out = tmp_path / "bad"
@@ -247,6 +249,25 @@ def test_no_source_counts_one_render_a_lipstick_look():
 
     assert renders_per_sample(DatasetJob("lipstick", "x", 1)) == 2
     assert renders_per_sample(DatasetJob("lipstick", "x", 1, source_images=False)) == 1
+
+
+def test_preset_kernels_draw_about_the_presets_left_in_and_are_recorded(tmp_path):
+    """--preset-kernel with --without-presets: each look near a preset left in (uniform ratio 0), the settings in the
+    manifest; a dataset without them keeps the manifest it had."""
+    from vto_core.presets import load_presets
+
+    make(tmp_path / "plain", 2)
+    make(tmp_path / "kernels", 4, "--uniform-ratio", "0", "--preset-kernel", "0.01", "--without-presets",
+         "Goth Black Matte")
+    plain, kernels = DatasetReader(tmp_path / "plain"), DatasetReader(tmp_path / "kernels")
+    assert "preset_kernel" not in plain.manifest and "without_presets" not in plain.manifest
+    assert kernels.manifest["preset_kernel"] == 0.01 and kernels.manifest["without_presets"] == ["Goth Black Matte"]
+    presets = load_presets("lipstick")
+    for i in range(4):
+        values = json.loads((kernels.root / "samples" / f"{i:07d}" / "params.json").read_text())["values"]
+        nearest = min(presets, key=lambda name: abs(presets[name]["red"] - values["red"]) / 255
+                      + abs(presets[name]["gloss"] - values["gloss"]))
+        assert nearest != "Goth Black Matte" and abs(presets[nearest]["red"] - values["red"]) < 0.05 * 255
 
 
 def test_vary_draws_an_unmodelled_input_per_look_and_keeps_the_sampled_ones(tmp_path):

@@ -63,6 +63,20 @@ def test_an_open_eye_shows_its_white_and_iris_a_covered_one_does_not():
     assert white_chroma(ASTRONAUT, face.landmarks, LIPSTICK.face_region) is None
 
 
+def test_a_bright_shade_inside_the_opening_leaves_the_eye_seen():
+    """A gold lid reaching into the top of the opening (a mesh a few px off, as on a tilted photo) is brighter and far
+    more chromatic than the eye's white; the white is still read, and the eye is not called hidden."""
+    face = READER.face_of(ASTRONAUT)
+    photo = ASTRONAUT.copy()
+    for region in (EYELIDS, LEFT_EYELID):
+        opening = face.landmarks[list(region.opening)]
+        (x0, y0), (x1, y1) = opening.min(axis=0).astype(int), opening.max(axis=0).astype(int) + 1
+        photo[y0:y0 + max(2, (y1 - y0) // 3), x0:x1] = (0.95, 0.78, 0.35)
+    for region in (EYELIDS, LEFT_EYELID):
+        assert white_chroma(photo, face.landmarks, region) < MAX_WHITE_CHROMA
+        assert unseen_reason(photo, face.landmarks, region) == ""
+
+
 def test_a_hand_the_colour_of_the_cheek_is_refused_by_the_missing_white():
     """The cheek under each eye moved over it: its texture spreads L* as an eye does, but nothing in it is as grey as an
     eye's white."""
