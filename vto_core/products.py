@@ -184,9 +184,10 @@ LEFT_EYELID = FaceRegion("eyelids", (LEFT_EYELID_LOOP,), EYELID_FRAME_SHARE, MIN
 # Eye shadow renders like the lipstick (a material's group over the lid's own shader, Cycles). A portrait is read at
 # both eyes' lids (each framed as the default eye scene frames one, the left flipped), the estimate their mean. Better
 # and Best fit the right lid in the photo's own scene (photo_scene_fit: 25 renders at 64 px, 100 at 96 px); on 13
-# held-out faces x 16 products tried on (benchmarks/results/eyeshadow_photos.md) Better reads 0.6 CIEDE2000 closer
-# than Fast, and Best, on two faces, 0.1 closer than Better: both are offered. Seconds: Better 1.3 a photo there and
-# 13 in the real window, Best 18 there and 55 in the real window (a benchmark running beside it).
+# held-out faces x 16 products tried on (benchmarks/results/eyeshadow_photos.md) Better reads 0.46 CIEDE2000 closer
+# than Fast; Best, on two faces, alike Better (median 2.51 against 2.44, mean 3.05 both), and on real made-up lids
+# closer (4.22 against 4.67): both are offered. Seconds: Better 1.3 a photo there and 13 in the real window, Best 18
+# there and 55 in the real window (a benchmark running beside it).
 EYESHADOW = Product(
     "eyeshadow", "Eye Shadow", eyeshadow_spec(), MATERIAL, "eyelids", EYELIDS,
     FitPolicy(renders=frozen({"BETTER": (1, 25), "BEST": (2, 100)}),
