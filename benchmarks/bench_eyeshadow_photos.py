@@ -149,10 +149,10 @@ def speed_part(model: Path) -> str:
 
     path = PHOTOS.parent / "nasa_linda_godwin.jpg"  # 871 x 1200: about 1 MP
     photo = read_image(path)[0][..., :3]
-    rows = []
+    rows, plum = [], load_presets("eyeshadow")["Plum"]
     for what, run in (("Fast (`match`: read, find, encoder)", lambda: match(str(model), str(path))),
                       ("preview (`tryon_view`, both lids, 160 px, 8 spp)",
-                       lambda: blender_side(EYESHADOW).tryon_view(photo, load_presets("eyeshadow")["Plum"], 160, 8, 0))):
+                       lambda: blender_side(EYESHADOW).tryon_view(photo, plum, 160, 8, 0))):
         times = []
         for _ in range(3):
             started = time.perf_counter()
@@ -233,7 +233,8 @@ def roundtrip(models: dict[str, Path], worn: list, renders: Renders, qualities: 
         table(["product", "truth L*", *labels], product_rows)])
 
 
-def lid_colours(photo: np.ndarray, found, hand: np.ndarray, looks: dict[str, dict[str, float]]) -> dict[str, np.ndarray]:
+def lid_colours(photo: np.ndarray, found, hand: np.ndarray,
+                looks: dict[str, dict[str, float]]) -> dict[str, np.ndarray]:
     """The mean display colour (3,) inside a hand-drawn lid polygon `hand` (K, 2 photo px) of the photo, and of each
     look worn on this lid as Better and Best see it (the photo's light, the bare lid from the skin beside it:
     PhotoLayer.bare; blender_addon.matching.photo_scene_fit), 64 px, TRYON_SAMPLES spp: {"photo" | look: colour}."""
@@ -258,8 +259,8 @@ def lid_colours(photo: np.ndarray, found, hand: np.ndarray, looks: dict[str, dic
     colours = {"photo": srgb_to_linear(target.frame)[inside].mean(axis=0)}
     for name, values in looks.items():
         values = spec.full_values(values)
-        worn = composite(np.broadcast_to(predicted, bare.shape), worn_over_bare(bare, render_look(scene, values, layer)),
-                         soft, values["opacity"])
+        ratio = worn_over_bare(bare, render_look(scene, values, layer))
+        worn = composite(np.broadcast_to(predicted, bare.shape), ratio, soft, values["opacity"])
         colours[name] = worn[inside].mean(axis=0)
     return {name: linear_to_srgb(np.clip(colour, 0.0, 1.0)) for name, colour in colours.items()}
 
@@ -269,7 +270,7 @@ def made_up(model: Path, qualities: list[str], out: Path) -> str:
     Better and Best see it) to the photo's lid colour, beside no product and the mean preset (one answer for every
     photo), and a picture at `out`: each photo's right eye | each quality's estimate on the default eye."""
     from blender_addon.renderers.products import render
-    from blender_addon.renderers.tryon import around
+    from blender_addon.renderers.tryon import around_lips
     from blender_addon.shipped import photo_reader
     from vto_core.imageio import read_image, write_image
     from vto_core.photo.framing import view_cut
@@ -286,7 +287,7 @@ def made_up(model: Path, qualities: list[str], out: Path) -> str:
         looks = {"no product": {"opacity": 0.0}, "mean preset": mean,
                  **{quality: estimate(model, path, quality)[0] for quality in qualities}}
         found, _ = photo_reader().locate_regions(EYESHADOW, photo)
-        view = around([np.asarray(found[0][1].outer, np.float64)], size)
+        view = around_lips(found[0][1], size)
         pictures.append(np.concatenate([view_cut(photo, view, size)[..., :3]] + [
             render("eyeshadow", spec.check_values(spec.full_values(looks[quality])), 1, size, TRYON_SAMPLES, 0)
             for quality in qualities], 1))
@@ -406,7 +407,8 @@ def main(argv: list[str] | None = None) -> None:
         write_section(RESULT, "roundtrip", roundtrip(models, worn, renders, args.qualities.split(","),
                                                      args.best_faces))
     if "made_up" in parts:
-        write_section(RESULT, "made_up", made_up(args.model, args.qualities.split(","), RESULTS / "eyeshadow_made_up.png"))
+        write_section(RESULT, "made_up", made_up(args.model, args.qualities.split(","),
+                                                 RESULTS / "eyeshadow_made_up.png"))
     if "moves" in parts:
         write_section(RESULT, "moves", moves(args.model, worn, args.work, args.move_faces, renders))
     if "picture" in parts:

@@ -84,10 +84,11 @@ class DatasetJob:
         if not 0.0 <= self.preset_kernel <= 0.5:
             raise VtoError(f"--preset-kernel must be in [0, 0.5], got {self.preset_kernel}")
         self.without_presets = tuple(self.without_presets)
-        unknown = sorted(set(self.without_presets) - set(load_presets(self.renderer)))
+        names = set(load_presets(self.renderer))
+        unknown = sorted(set(self.without_presets) - names)
         if unknown:
             raise VtoError(f"--without-presets: no {self.renderer} preset named {', '.join(unknown)}")
-        if len(self.sampled_presets) < 2:
+        if len(names - set(self.without_presets)) < 2:
             raise VtoError("--without-presets leaves fewer than 2 presets to sample from")
         self.vary = tuple(self.vary)
         for name in self.vary:

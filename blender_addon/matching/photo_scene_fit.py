@@ -72,7 +72,8 @@ def under_layer(frame: np.ndarray, soft: np.ndarray, core: np.ndarray, ratio: np
     """What lies under the layer, and where the photo shows the layer: (the photo's frame (n, n, 3) linear with the
     product of `ratio` (n, n, 3, what Fast's estimate does to the lips) divided out inside the soft mask (n, n) and
     scaled per channel so that the median of its trusted pixels is what the `bare` lips' colour (3,) linear gives
-    (times `core_median` (3,), the layer's: a bare core's median over its mean); the trust (n, n) in [0, 1] of each pixel of the lips' core (n, n)).
+    (times `core_median` (3,), the layer's: a bare core's median over its mean); the trust (n, n) in [0, 1] of each
+    pixel of the lips' core (n, n)).
 
     Where the product lies, dividing it out leaves lips of about the bare lips' colour; where the lips found reach
     past the painted ones (skin, or lips the layer missed), it leaves a colour no lips have (bare lips divided by a

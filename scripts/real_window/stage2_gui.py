@@ -5,10 +5,10 @@ the window draws and handles the events in between.
 
 Lips: a whole portrait (the add-on finds the lips and reads the photo's light from her skin), Match (Fast) clicked,
 undone, clicked twice more, then Better. Eye shadow: the plane "Lid" made active, a whole portrait wearing eye shadow
-(the add-on finds both eyes' lids), Match (Fast) clicked, its Preview on Photo, undone, clicked again, then Better and Best. Hair: a patch of the portrait's
-hair, Match (Fast), undone; then Better chosen in the sidebar's Quality row (a real click on its button) and Match
-clicked: the modal fit runs. A main loop stalled for STALL_S seconds dumps every thread's Python stack into the log
-and exits."""
+(the add-on finds both eyes' lids), Match (Fast) clicked, its Preview on Photo, undone, clicked again, then Better and
+Best. Hair: a patch of the portrait's hair, Match (Fast), undone; then Better chosen in the sidebar's Quality row (a
+real click on its button) and Match clicked: the modal fit runs. A main loop stalled for STALL_S seconds dumps every
+thread's Python stack into the log and exits."""
 import faulthandler
 import importlib
 import json
