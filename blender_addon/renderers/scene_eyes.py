@@ -18,7 +18,7 @@ from vto_core.colour import srgb_to_linear
 from ..compat import enable_nodes
 from .lighting import build_hdri_world
 from .nodes_eyeshadow import ACROSS_ATTRIBUTE, LID_ATTRIBUTE, eyeshadow_material
-from .scene_lips import SKIN_TONES, mesh_object, randomise_light, use_lighting
+from .scene_lips import SKIN_TONES, mesh_object, randomise_light, use_lighting, uv_sphere
 
 SCENE_NAME = "VTO Eye"
 LID_OBJECT, SKIN_OBJECT = "VTO Eyelid", "VTO Eye Skin"
@@ -340,13 +340,8 @@ def _set_eye_colours(iris: np.ndarray, sclera: np.ndarray) -> None:
 
 
 def _eyeball_mesh() -> bpy.types.Mesh:
-    import bmesh  # importable only once bpy is
-
     mesh = bpy.data.meshes.new(EYEBALL_OBJECT)
-    sphere = bmesh.new()
-    bmesh.ops.create_uvsphere(sphere, u_segments=48, v_segments=24, radius=EYEBALL_RADIUS)
-    sphere.to_mesh(mesh)
-    sphere.free()
+    mesh.from_pydata(*uv_sphere(48, 24, EYEBALL_RADIUS))
     mesh.shade_smooth()
     mesh.materials.append(_eyeball_material())
     return mesh

@@ -15,7 +15,7 @@ from vto_core.errors import VtoError
 
 from ..compat import enable_nodes
 from .lighting import build_hdri_world, randomise_hdri
-from .scene_lips import SKIN_TONES
+from .scene_lips import SKIN_TONES, uv_sphere
 
 SCENE_NAME = "VTO Hair"
 HAIR_OBJECT = "VTO Hair Strands"
@@ -91,28 +91,6 @@ def strand_positions(rng: np.random.Generator) -> np.ndarray:
     points += (wave * along[..., 0] ** 0.5)[..., None] * sideways
     points += rng.normal(0, 0.006, points.shape) * along
     return points.reshape(-1, 3).astype(np.float32)
-
-
-def uv_sphere(segments: int, rings: int, radius: float) -> tuple[list, list, list]:
-    """(vertices, edges, faces) of a UV sphere about z, in a fixed order.
-
-    bmesh's create_uvsphere orders its faces differently from run to run, and with them Blender's normals and
-    Cycles' sums, so renders changed in the last bit between runs.
-    """
-    polar = np.pi * np.arange(1, rings) / rings
-    azimuth = 2 * np.pi * np.arange(segments) / segments
-    ring = np.stack([np.outer(np.sin(polar), np.cos(azimuth)), np.outer(np.sin(polar), np.sin(azimuth)),
-                     np.repeat(np.cos(polar)[:, None], segments, 1)], -1).reshape(-1, 3)
-    vertices = np.concatenate([[(0.0, 0.0, 1.0)], ring, [(0.0, 0.0, -1.0)]]) * radius
-    bottom = len(vertices) - 1
-
-    def at(k, j):  # vertex j of ring k (0 = nearest the top)
-        return 1 + k * segments + j % segments
-
-    faces = [(0, at(0, j), at(0, j + 1)) for j in range(segments)]
-    faces += [(at(k, j), at(k + 1, j), at(k + 1, j + 1), at(k, j + 1)) for k in range(rings - 2) for j in range(segments)]
-    faces += [(bottom, at(rings - 2, j + 1), at(rings - 2, j)) for j in range(segments)]
-    return vertices.tolist(), [], faces
 
 
 def _hair_material() -> bpy.types.Material:

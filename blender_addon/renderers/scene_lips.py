@@ -107,6 +107,28 @@ def mesh_object(scene, name: str, vertices: np.ndarray, faces, material) -> bpy.
     return obj
 
 
+def uv_sphere(segments: int, rings: int, radius: float) -> tuple[list, list, list]:
+    """(vertices, edges, faces) of a UV sphere about z, in a fixed order.
+
+    bmesh's create_uvsphere orders its faces differently from run to run, and with them Blender's normals and
+    Cycles' sums, so renders changed in the last bit between runs.
+    """
+    polar = np.pi * np.arange(1, rings) / rings
+    azimuth = 2 * np.pi * np.arange(segments) / segments
+    ring = np.stack([np.outer(np.sin(polar), np.cos(azimuth)), np.outer(np.sin(polar), np.sin(azimuth)),
+                     np.repeat(np.cos(polar)[:, None], segments, 1)], -1).reshape(-1, 3)
+    vertices = np.concatenate([[(0.0, 0.0, 1.0)], ring, [(0.0, 0.0, -1.0)]]) * radius
+    bottom = len(vertices) - 1
+
+    def at(k, j):  # vertex j of ring k (0 = nearest the top)
+        return 1 + k * segments + j % segments
+
+    faces = [(0, at(0, j), at(0, j + 1)) for j in range(segments)]
+    faces += [(at(k, j), at(k + 1, j), at(k + 1, j + 1), at(k, j + 1)) for k in range(rings - 2) for j in range(segments)]
+    faces += [(bottom, at(rings - 2, j + 1), at(rings - 2, j)) for j in range(segments)]
+    return vertices.tolist(), [], faces
+
+
 def _skin_material() -> bpy.types.Material:
     material = bpy.data.materials.new(SKIN_MATERIAL)
     enable_nodes(material)

@@ -115,19 +115,10 @@ def test_killed_and_resumed_hair_dataset_equals_an_uninterrupted_one(tmp_path):
     assert tree_hashes(tmp_path / "clean") == tree_hashes(tmp_path / "killed")
 
 
-def images_and_hashes(root: Path) -> tuple[dict, dict]:
-    """{relative path: pixels} of a dataset's PNGs, {relative path: hash} of its other files."""
-    from vto_core.imageio import read_image
-
-    pngs = sorted(root.rglob("*.png"))
-    return ({str(p.relative_to(root)): read_image(p)[0] for p in pngs},
-            {k: v for k, v in tree_hashes(root).items() if not k.endswith(".png")})
-
-
 def test_eyeshadow_dataset_resumes_after_a_kill_and_shards_to_the_same_files(tmp_path):
-    """The default eye scene repeats as the lips' does: 2 shards in one process give one run's bytes; killed and resumed
-    in another process, its records are the same bytes and its images the same to 1 step of 16 bits (the lashes meet
-    the eyeball, and Cycles' BVH, built anew in each process, settles a few ties there the other way)."""
+    """The default eye scene repeats as the lips' does: 2 shards give one run's bytes, and so does a run killed and
+    resumed in another process (an eyeball made by bmesh, whose faces come in another order in each process,
+    differed there in the last bit: scene_lips.uv_sphere)."""
     n, tiny = 6, ["--res", "16", "--samples", "2", "--seed", "8", "--quiet"]
     assert cmd_dataset(["eyeshadow", "--out", str(tmp_path / "clean"), "--n", str(n), *tiny]) == 0
     for i in range(2):
@@ -136,9 +127,7 @@ def test_eyeshadow_dataset_resumes_after_a_kill_and_shards_to_the_same_files(tmp
     assert tree_hashes(tmp_path / "clean") == tree_hashes(tmp_path / "sharded")
     kill_midway(tmp_path / "killed", ["eyeshadow", "--n", str(n), *tiny], n)
     assert cmd_dataset(["eyeshadow", "--out", str(tmp_path / "killed"), "--n", str(n), *tiny]) == 0
-    (clean, clean_files), (killed, killed_files) = (images_and_hashes(tmp_path / k) for k in ("clean", "killed"))
-    assert clean_files == killed_files and clean.keys() == killed.keys()
-    assert max(np.abs(clean[k] - killed[k]).max() for k in clean) <= 1.0 / 65535 + 1e-7
+    assert tree_hashes(tmp_path / "clean") == tree_hashes(tmp_path / "killed")
 
 
 def test_two_workers_make_the_same_files(tmp_path):
