@@ -9,6 +9,7 @@ from statistics import NormalDist
 
 import numpy as np
 
+from .colour import linear_to_srgb, srgb_to_linear
 from .errors import VtoError
 from .specs import RendererSpec
 
@@ -23,6 +24,8 @@ _GIBBS_SWEEPS = 6
 _INSIDE = 1e-9  # the start is moved this far inside the box
 _SQRT_HALF, _LOG_2, _STANDARD_NORMAL = math.sqrt(0.5), math.log(2.0), NormalDist()
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
+COLOUR = ("red", "green", "blue")  # a product's colour, 8-bit sRGB, which uniform_lightness moves
+_REC709 = np.array([0.2126729, 0.7151522, 0.0721750])  # linear sRGB -> relative luminance Y
 
 
 @dataclass(frozen=True)
@@ -152,13 +155,28 @@ class PresetKernels:
         return np.where(self.wraps, moved % 1.0, np.clip(reflected, 0.0, 1.0))
 
 
+def at_lightness(srgb: np.ndarray, lightness: float) -> np.ndarray:
+    """An sRGB colour (3,) in [0, 1] moved to CIELAB lightness `lightness` in [0, 100], its hue kept: darkened by
+    scaling its linear light, lightened by mixing it with white in linear light: (3,) in [0, 1]."""
+    linear = srgb_to_linear(srgb).astype(np.float64)
+    y = float(linear @ _REC709)
+    target = ((lightness + 16.0) / 116.0) ** 3 if lightness > 8.0 else lightness * 27.0 / 24389.0
+    if target <= y:
+        moved = linear * (target / y) if y > 0.0 else linear
+    else:
+        moved = linear + (target - y) / (1.0 - y) * (1.0 - linear)
+    return np.clip(linear_to_srgb(moved).astype(np.float64), 0.0, 1.0)
+
+
 class ParamSampler:
     """Deterministic sampler: sample i is a pure function of (seed, i)."""
 
     def __init__(self, spec: RendererSpec, unit_presets: np.ndarray | None, uniform_ratio: float = 0.5, seed: int = 0,
-                 kernel: float = 0.0):
+                 kernel: float = 0.0, uniform_lightness: bool = False):
         """kernel: 0 draws the non-uniform share from one normal fitted on the presets (the paper's); above 0, from
-        PresetKernels of that width (unit range)."""
+        PresetKernels of that width (unit range). uniform_lightness: each uniform draw's colour is moved to a CIELAB
+        lightness drawn uniformly in [0, 100] (at_lightness), so dark and light products are as common as middling
+        ones (the RGB cube puts 3 % of its colours below L* 20)."""
         if not 0.0 <= uniform_ratio <= 1.0:
             raise VtoError(f"uniform_ratio must be in [0, 1], got {uniform_ratio}")
         if not 0.0 <= kernel <= 0.5:
@@ -171,6 +189,12 @@ class ParamSampler:
         self.seed = int(seed)
         self.uniform_ratio = float(uniform_ratio)
         self.normal = None
+        self.colour = None  # positions of COLOUR in spec.modelled where uniform_lightness moves them
+        if uniform_lightness:
+            if not set(COLOUR) <= set(spec.modelled):
+                raise VtoError(f"uniform lightness moves a modelled colour ({', '.join(COLOUR)}); {spec.renderer} "
+                               f"models {', '.join(spec.modelled)}")
+            self.colour = [spec.modelled.index(name) for name in COLOUR]
         if uniform_ratio < 1.0:
             wraps = np.array([p.wraps for p in spec.modelled_params])
             self.normal = (PresetKernels(np.asarray(unit_presets, np.float64), kernel, wraps) if kernel > 0
@@ -185,7 +209,12 @@ class ParamSampler:
         """Normalised parameter vector of sample `index`: (m,) float64 in [0,1]."""
         rng = self._rng(index, _STREAM_MIXTURE)
         if rng.random() < self.uniform_ratio:
-            return rng.random(self.spec.size)
+            unit = rng.random(self.spec.size)
+            if self.colour is not None:
+                raw = self.spec.denormalise(unit)
+                raw[self.colour] = 255.0 * at_lightness(raw[self.colour] / 255.0, 100.0 * rng.random())
+                unit[self.colour] = self.spec.normalise(raw)[self.colour]
+            return unit
         return self.normal.draw(rng)
 
     def sample(self, index: int) -> np.ndarray:

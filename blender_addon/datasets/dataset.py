@@ -16,7 +16,7 @@ from vto_core.dataset import (DEFAULT_RES, DEFAULT_SAMPLES, FORMAT_VERSION, Samp
                               remove_stale_temporaries, write_manifest)
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
-from vto_core.sampling import ParamSampler
+from vto_core.sampling import COLOUR, ParamSampler
 from vto_core.products import PRODUCTS, Product, get_product, get_spec
 from vto_core.specs import RendererSpec
 
@@ -51,6 +51,7 @@ class DatasetJob:
     photos: str | None = None  # try the looks on these portraits' face regions (photo_looks) instead
     preset_kernel: float = 0.0  # > 0: draw about each preset (sampling.PresetKernels) instead of one normal on them
     without_presets: tuple[str, ...] = ()  # presets the sampler leaves out (a benchmark's products, kept unseen)
+    uniform_lightness: bool = False  # the uniform draws' colours spread evenly over CIELAB lightness (sampling)
     spec: RendererSpec = field(init=False)
 
     @property
@@ -81,6 +82,9 @@ class DatasetJob:
             raise VtoError(f"--source-folder {self.source_folder} is not a folder")
         self.spec = get_spec(self.renderer, self.params)
         product = self.product
+        if self.uniform_lightness and not set(COLOUR) <= set(self.spec.modelled):
+            raise VtoError(f"--uniform-lightness moves the colour ({', '.join(COLOUR)}): model all three, got "
+                           f"{', '.join(self.spec.modelled)}")
         if not 0.0 <= self.preset_kernel <= 0.5:
             raise VtoError(f"--preset-kernel must be in [0, 0.5], got {self.preset_kernel}")
         self.without_presets = tuple(self.without_presets)
@@ -141,6 +145,8 @@ class DatasetJob:
             settings["without_presets"] = list(self.without_presets)
         else:
             del settings["without_presets"]
+        if not self.uniform_lightness:  # likewise
+            del settings["uniform_lightness"]
         del settings["photos"]
         if self.photos is not None:  # the faces themselves, by name and content: a folder's path says little
             from vto_core.dataset import file_digest
@@ -190,7 +196,7 @@ class SampleRenderer:
         self.job = job
         spec = job.spec
         self.sampler = ParamSampler(spec, preset_matrix(spec, job.sampled_presets), job.uniform_ratio, job.seed,
-                                    job.preset_kernel)
+                                    job.preset_kernel, job.uniform_lightness)
         self.photos = None
         self.user_scene = None
         self.photo_looks = None

@@ -6,7 +6,7 @@ from scipy.stats import truncnorm
 
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
-from vto_core.sampling import ParamSampler, PresetKernels, PresetNormal, truncated_standard_normal
+from vto_core.sampling import ParamSampler, PresetKernels, PresetNormal, at_lightness, truncated_standard_normal
 from vto_core.products import get_spec
 
 
@@ -105,6 +105,8 @@ def test_bad_arguments():
         PresetNormal.fit(spec, np.zeros((1, 9)))
     with pytest.raises(VtoError, match="kernel's width"):
         ParamSampler(spec, None, 1.0, kernel=-0.1)
+    with pytest.raises(VtoError, match="uniform lightness moves a modelled colour"):
+        ParamSampler(get_spec("lipstick", "opacity,red,gloss"), None, 1.0, uniform_lightness=True)
 
 
 def test_preset_kernels_keep_the_presets_dark_end_where_one_normal_moves_it_to_the_middle():
@@ -125,6 +127,42 @@ def test_preset_kernels_keep_the_presets_dark_end_where_one_normal_moves_it_to_t
     assert ((0.0 <= drawn) & (drawn <= 1.0)).all()
     assert abs(dark_share(drawn) - dark_share(presets)) < 0.06
     assert dark_share([normal.sample_unit(i) for i in range(600)]) < 0.5 * dark_share(presets)
+
+
+def test_uniform_lightness_spreads_the_colours_evenly_over_lightness_and_leaves_the_rest():
+    """Eye shadow, all draws uniform: with uniform_lightness a tenth of the colours in each tenth of L* (the RGB cube
+    gives 3 % below L* 20); every other parameter is the draw it was without it, and the normal share is untouched."""
+    from vto_core.colour import srgb_to_lab
+
+    spec = get_spec("eyeshadow")
+    colour = [spec.modelled.index(name) for name in ("red", "green", "blue")]
+    rest = [k for k in range(spec.size) if k not in colour]
+    even, cube = (ParamSampler(spec, None, 1.0, 5, uniform_lightness=flag) for flag in (True, False))
+    drawn, plain = (np.array([s.sample_unit(i) for i in range(2000)]) for s in (even, cube))
+    lightness = srgb_to_lab(drawn[:, colour].astype(np.float32))[:, 0]
+    assert ((0.0 <= drawn) & (drawn <= 1.0)).all()
+    assert np.allclose(np.histogram(lightness, bins=10, range=(0, 100))[0] / 2000, 0.1, atol=0.025)
+    assert np.mean(srgb_to_lab(plain[:, colour].astype(np.float32))[:, 0] < 20) < 0.05
+    assert np.array_equal(drawn[:, rest], plain[:, rest])
+    presets = preset_matrix(spec, load_presets("eyeshadow"))
+    mixed, normal = (ParamSampler(spec, presets, 0.5, 5, uniform_lightness=flag) for flag in (True, False))
+    same = [np.array_equal(mixed.sample_unit(i), normal.sample_unit(i)) for i in range(200)]
+    assert 60 < sum(same) < 140  # the normal's half is the same draws; the uniform half moved
+
+
+@pytest.mark.parametrize("rgb", [(0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (0.9, 0.1, 0.2), (0.2, 0.5, 0.9)])
+@pytest.mark.parametrize("lightness", [0.0, 4.0, 20.0, 60.0, 100.0])
+def test_at_lightness_hits_the_lightness_and_keeps_the_hue_when_darkening(rgb, lightness):
+    """At both ends (black, white, L* 0 and 100) the colour lands on the lightness asked; darkening keeps the linear
+    chromaticity exactly (a scale), and every result is finite and in [0, 1]."""
+    from vto_core.colour import srgb_to_lab, srgb_to_linear
+
+    moved = at_lightness(np.array(rgb), lightness)
+    assert np.isfinite(moved).all() and ((0.0 <= moved) & (moved <= 1.0)).all()
+    assert abs(float(srgb_to_lab(moved.astype(np.float32))[0]) - lightness) < 0.05
+    before, after = srgb_to_linear(np.array(rgb)), srgb_to_linear(moved)
+    if 0 < lightness < float(srgb_to_lab(np.array(rgb, np.float32))[0]):
+        assert np.allclose(after / after.sum(), before / before.sum(), atol=1e-4)
 
 
 def test_preset_kernels_reflect_at_the_edges_and_wrap_hue():

@@ -148,6 +148,7 @@ def test_two_workers_make_the_same_files(tmp_path):
     (["--n", "4", "--vary", "shimmer"], "--vary takes unmodelled lipstick inputs"),
     (["--n", "4", "--preset-kernel", "0.7"], "--preset-kernel must be in [0, 0.5]"),
     (["--n", "4", "--without-presets", "Classic Red,No Such Shade"], "no lipstick preset named No Such Shade"),
+    (["--n", "4", "--params", "red,gloss", "--uniform-lightness"], "--uniform-lightness moves the colour"),
 ])
 def test_bad_arguments_are_clear_errors_and_write_nothing(tmp_path, capsys, argv, message):
     out = tmp_path / "bad"
@@ -257,6 +258,21 @@ def test_preset_kernels_draw_about_the_presets_left_in_and_are_recorded(tmp_path
         nearest = min(presets, key=lambda name: abs(presets[name]["red"] - values["red"]) / 255
                       + abs(presets[name]["gloss"] - values["gloss"]))
         assert nearest != "Goth Black Matte" and abs(presets[nearest]["red"] - values["red"]) < 0.05 * 255
+
+
+def test_uniform_lightness_is_recorded_and_moves_only_the_uniform_colours(tmp_path):
+    """--uniform-lightness, all draws uniform: the looks' colours differ from a plain run's, their other values do
+    not; the manifest records it (a dataset without it keeps the manifest it had)."""
+    colour = ["--params", "red,green,blue,gloss", "--uniform-ratio", "1"]
+    make(tmp_path / "plain", 3, *colour)
+    make(tmp_path / "even", 3, *colour, "--uniform-lightness")
+    plain, even = DatasetReader(tmp_path / "plain"), DatasetReader(tmp_path / "even")
+    assert "uniform_lightness" not in plain.manifest and even.manifest["uniform_lightness"] is True
+    for i in range(3):
+        a, b = (json.loads((r.root / "samples" / f"{i:07d}" / "params.json").read_text())["values"]
+                for r in (plain, even))
+        assert any(abs(a[c] - b[c]) > 1.0 for c in ("red", "green", "blue"))
+        assert all(a[k] == b[k] for k in a if k not in ("red", "green", "blue"))
 
 
 def test_vary_draws_an_unmodelled_input_per_look_and_keeps_the_sampled_ones(tmp_path):
