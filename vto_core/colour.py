@@ -175,6 +175,16 @@ def _srgb_to_lab(srgb, dtype):
     return np.stack([116 * f[..., 1] - 16, 500 * (f[..., 0] - f[..., 1]), 200 * (f[..., 1] - f[..., 2])], -1)
 
 
+def lightness_luminance(lightness: float) -> float:
+    """CIELAB L* in [0, 100] -> the relative luminance Y in [0, 1] that has it (the inverse of _srgb_to_lab's L*)."""
+    return ((lightness + 16.0) / 116.0) ** 3 if lightness > 8.0 else lightness * 27.0 / 24389.0
+
+
+def relative_luminance(linear) -> float:
+    """A linear sRGB colour (3,) -> its CIE relative luminance Y (the row of the sRGB -> XYZ matrix CIELAB reads)."""
+    return float(_as_float64(linear) @ _SRGB_TO_XYZ[1])
+
+
 def ciede2000(lab1, lab2):
     """CIEDE2000 colour difference of two CIELAB arrays (..., 3) -> (...) float64 (Sharma et al. 2005)."""
     lab1, lab2 = _as_float64(lab1), _as_float64(lab2)

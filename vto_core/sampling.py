@@ -9,7 +9,7 @@ from statistics import NormalDist
 
 import numpy as np
 
-from .colour import linear_to_srgb, srgb_to_linear
+from .colour import lightness_luminance, linear_to_srgb, relative_luminance, srgb_to_linear
 from .errors import VtoError
 from .specs import RendererSpec
 
@@ -25,7 +25,6 @@ _INSIDE = 1e-9  # the start is moved this far inside the box
 _SQRT_HALF, _LOG_2, _STANDARD_NORMAL = math.sqrt(0.5), math.log(2.0), NormalDist()
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
 COLOUR = ("red", "green", "blue")  # a product's colour, 8-bit sRGB, which uniform_lightness moves
-_REC709 = np.array([0.2126729, 0.7151522, 0.0721750])  # linear sRGB -> relative luminance Y
 
 
 @dataclass(frozen=True)
@@ -159,8 +158,7 @@ def at_lightness(srgb: np.ndarray, lightness: float) -> np.ndarray:
     """An sRGB colour (3,) in [0, 1] moved to CIELAB lightness `lightness` in [0, 100], its hue kept: darkened by
     scaling its linear light, lightened by mixing it with white in linear light: (3,) in [0, 1]."""
     linear = srgb_to_linear(srgb).astype(np.float64)
-    y = float(linear @ _REC709)
-    target = ((lightness + 16.0) / 116.0) ** 3 if lightness > 8.0 else lightness * 27.0 / 24389.0
+    y, target = relative_luminance(linear), lightness_luminance(lightness)
     if target <= y:
         moved = linear * (target / y) if y > 0.0 else linear
     else:

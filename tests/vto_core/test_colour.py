@@ -296,3 +296,15 @@ def test_srgb_to_lab_in_float32_matches_float64():
                    np.float32)
     assert np.isfinite(srgb_to_lab(hdr, fast=True)).all()
     np.testing.assert_allclose(srgb_to_lab(hdr[2:], fast=True), srgb_to_lab(hdr[2:]), rtol=1e-5)
+
+
+@pytest.mark.parametrize("lightness", [0.0, 5.0, 8.0, 8.5, 50.0, 100.0])
+def test_lightness_luminance_inverts_the_lightness_of_srgb_to_lab(lightness):
+    """A grey of the luminance asked for reads that L* back (both sides of the CIE toe at L* 8); its relative luminance
+    is its linear value."""
+    from vto_core.colour import lightness_luminance, relative_luminance, srgb_to_lab
+
+    y = lightness_luminance(lightness)
+    grey = np.full(3, y)
+    assert relative_luminance(grey) == pytest.approx(y, rel=1e-6, abs=1e-12)
+    assert float(srgb_to_lab(linear_to_srgb(grey))[0]) == pytest.approx(lightness, abs=0.02)
