@@ -3,7 +3,8 @@ Xvfb).
 
 Runs scripts/real_window/run.sh (root; the Debian trixie chroot is made the first time) and records the times the
 operator reports: three clicks on Match (Fast) in the Material tab on a whole portrait (scikit-image's astronaut; the
-add-on finds her lips and reads the photo's light from her skin), and in the Compositor's sidebar on the same whole
+add-on finds her lips and reads the photo's light from her skin), three on an eye-shadow material with the portrait
+wearing eye shadow, then Better and Best, and in the Compositor's sidebar on the same whole
 portrait (the add-on finds her hair), Fast twice and then Better chosen in the Quality row (the modal fit through the
 compositor stage). `--from DIR` reads a
 finished run's DIR/result.json instead.
@@ -29,6 +30,11 @@ LOCATOR_MS = 15.0  # plus the lips locator on a whole portrait (benchmarks/resul
 def shade(values: dict) -> str:
     return "({:.0f}, {:.0f}, {:.0f}) at opacity {:.2f}, gloss {:.2f}, reflection {:.2f}".format(
         *(values[k] for k in ("Red", "Green", "Blue", "Opacity", "Gloss", "Reflection")))
+
+
+def eye_colour(values: dict) -> str:
+    return "({:.0f}, {:.0f}, {:.0f}) at opacity {:.2f}".format(*(values[k] for k in ("Red", "Green", "Blue",
+                                                                                  "Opacity")))
 
 
 def stall(out: Path) -> str:
@@ -70,6 +76,12 @@ def main() -> None:
     better = hair.get("better_ms", [])
     rows += [["hair Better, Compositor sidebar (100 stage passes on its 2 shipped hair regions)", f"{ms:,.0f}"]
              for ms in better]
+    eyes = window.get("eyes", {})
+    rows += [[f"eye shadow Fast, click {i + 1} (both lids found in the portrait wearing Royal Purple)", f"{ms:.1f}"]
+             for i, ms in enumerate(eyes.get("ms", []))]
+    rows += [[f"eye shadow {quality.title()}, fitted on the right lid in the photo's own scene ({renders} renders)",
+              f"{ms:,.0f}"] for quality, renders in (("better", 25), ("best", 100))
+             for ms in eyes.get(f"{quality}_ms", [])]
     found = lips.get("found", {})
     warm = min(second, third)
     goal = WARM_GOAL_MS + LOCATOR_MS
@@ -94,6 +106,10 @@ def main() -> None:
         + (f"; the add-on found her hair in the box {tuple(hair['found']['box'])} ({hair['found']['share']:.1%} of "
            f"the photo) and its thumbnail said \"{hair.get('thumbnail_note', '')}\"" if "found" in hair else "")
         + "."
+        + (" The eye-shadow reference is the same portrait wearing Royal Purple (98, 52, 150) on both lids (`vto tryon "
+           "eyeshadow`): Fast wrote {}".format(eye_colour(eyes["first"])) + "".join(
+               f", {quality.title()} {eye_colour(eyes[quality])}" for quality in ("better", "best") if quality in eyes)
+           + "." if "first" in eyes else "")
         + ("\n\nWhat went wrong in this run:\n\n" + "\n".join(f"- {p.strip().splitlines()[-1]}" for p in problems)
            if problems else "")
         + "\n\nReproduce: `sudo .venv/bin/python -m benchmarks.bench_real_window`.")

@@ -3,11 +3,13 @@
 # trained on the London Set's training people (data/faces/london, its 'train' split: 63 people, neutral and smiling;
 # never its 39 evaluation people) beside the training faces of data/faces and fresh default-scene looks.
 #   scripts/train_encoder_skin_tones.sh NAME [--set key=value ...]   -> out/NAME.onnx
-# The shipped file (session 60): `START=out/london_wl.onnx STEPS=4000 scripts/train_encoder_skin_tones.sh london_wm
-# --set graphics_error=absolute`, where london_wl is `START=out/london_w.onnx STEPS=2000 ... london_wl --set
-# graphics_error=absolute` run before lip64l existed, and london_w `START=out/london_k.onnx STEPS=3000 ... london_w`
-# before london78l existed; then copied to blender_addon/models/lipstick_encoder.onnx. The one before it
-# (2026-11-27, london_l1) was trained from a193996's file on the first three datasets alone. The datasets resume where they
+# The shipped file (session 61): `START=out/london_wm.onnx STEPS=4000 scripts/train_encoder_skin_tones.sh london_wn
+# --set graphics_error=absolute`, where london_wm is `START=out/london_wl.onnx STEPS=4000 ... london_wm --set
+# graphics_error=absolute` run before london80l and lip64m existed, london_wl `START=out/london_w.onnx STEPS=2000 ...
+# london_wl --set graphics_error=absolute` before lip64l, and london_w `START=out/london_k.onnx STEPS=3000 ...
+# london_w` before london78l; then copied to blender_addon/models/lipstick_encoder.onnx. The one before them
+# (2026-11-27, london_l1) was trained from a193996's file on the first three datasets alone. The datasets resume where
+# they
 # stopped (each is skipped once whole). CPU: about 25 min of rendering (two processes), then STEPS steps on one thread
 # (2,000: 45 min beside other jobs).
 set -euo pipefail
@@ -37,12 +39,18 @@ $VTO dataset lipstick --out out/data/london78l --n 3000 --seed 78 --photos data/
     --uniform-ratio 0.3 --uniform-lightness --preset-kernel 0.12 --without-presets "$HELD_OUT"
 $VTO dataset lipstick --out out/data/lip64l --n 3000 --seed 79 --no-source \
     --uniform-ratio 0.3 --uniform-lightness --preset-kernel 0.12 --without-presets "$HELD_OUT"
+# Half of the looks spread evenly over lightness, on the London faces and on the default lips: more of the dark end,
+# where the products still read light (Goth Black, and the black faces' products).
+$VTO dataset lipstick --out out/data/london80l --n 3000 --seed 80 --photos data/faces/london --no-source \
+    --uniform-ratio 0.5 --uniform-lightness --preset-kernel 0.12 --without-presets "$HELD_OUT"
+$VTO dataset lipstick --out out/data/lip64m --n 3000 --seed 81 --no-source \
+    --uniform-ratio 0.5 --uniform-lightness --preset-kernel 0.12 --without-presets "$HELD_OUT"
 SETTINGS=(--set loss=graphics --set augment=true --set photo_views=true --set mouth_views=true --set blocks=1
        --set batch_norm=true --set lr=0.0003 --set schedule=cosine --set warmup_steps=50 --set input_filter=3
        --set colour_imitator=blender_addon/models/lipstick_colour.onnx --set lambda_colour=1.0 --set log_every=250
        --set checkpoint_every=1000 --set steps="${STEPS:-4000}")
 $VTO train encoder --data out/data/lip64e out/data/faces72 out/data/london71 out/data/london74p out/data/london75k \
-    out/data/london76k out/data/lip64k out/data/london78l out/data/lip64l \
+    out/data/london76k out/data/lip64k out/data/london78l out/data/lip64l out/data/london80l out/data/lip64m \
     --out "out/runs/$NAME" \
     "${SETTINGS[@]}" --set init="$START" "$@"
 $VTO export --encoder "out/runs/$NAME" --out "out/$NAME.onnx"

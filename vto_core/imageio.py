@@ -169,11 +169,30 @@ def as_float(pixels):
     pixels = np.asarray(pixels)
     if pixels.dtype not in (np.uint8, np.uint16):
         return np.asarray(pixels, np.float32)
-    table = float_table(pixels.dtype)
+    table, scale = float_table(pixels.dtype), float_scale(pixels.dtype)
     out = np.empty(pixels.shape, np.float32)
     for start in range(0, max(1, pixels.shape[0]), ROWS_AT_ONCE):
-        np.take(table, pixels[start:start + ROWS_AT_ONCE], out=out[start:start + ROWS_AT_ONCE])
+        rows = slice(start, start + ROWS_AT_ONCE)
+        if scale is None:
+            np.take(table, pixels[rows], out=out[rows])
+        else:  # the same floats, five times faster than a lookup
+            np.multiply(pixels[rows], scale, out=out[rows], dtype=np.float32)
     return out
+
+
+def float_scale(dtype):
+    """The float32 s with float_table(dtype) == codes * s for every code (OpenImageIO's conversion is that product), or
+    None where it is not."""
+    dtype = np.dtype(dtype)
+    if dtype.str not in _FLOAT_SCALES:
+        table = float_table(dtype)
+        scale = np.float32(1.0) / np.float32(table.size - 1)
+        codes = np.arange(table.size, dtype=np.float32)
+        _FLOAT_SCALES[dtype.str] = scale if np.array_equal(codes * scale, table) else None
+    return _FLOAT_SCALES[dtype.str]
+
+
+_FLOAT_SCALES = {}
 
 
 def require_finite(image, what):

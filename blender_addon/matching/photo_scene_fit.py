@@ -12,7 +12,8 @@ lips the layer missed), dividing the product out leaves a colour no lips have: t
 photo over the trusted core of the lips, in sRGB levels, by Levenberg-Marquardt (blender_addon.matching.refine) from
 Fast's estimate, which is kept unless a candidate renders closer; each unit of distance from Fast costs SCENE_PRIOR
 levels, so where the photo cannot tell (a thin layer over lips of an unknown colour) the estimate stays near what
-the encoder read.
+the encoder read. Where the guess of the bare region is poor (a lid: PhotoLayer.bare_spread), its level is fitted
+beside the product, at a cost that grows with its distance from the guess in spreads (bare_share, LEVEL_RANGE).
 """
 
 from __future__ import annotations
@@ -23,8 +24,10 @@ from vto_core.appearance import skin_colour
 from vto_core.colour import linear_to_srgb, srgb_to_linear
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
-from vto_core.photo.tryon import composite, feathered, worn_over_bare
+from vto_core.photo.tryon import RATIO_FLOOR, composite, feathered, worn_over_bare
 from vto_core.specs import RendererSpec
+
+from .refine import SIGMA
 
 SCENE_FIT = {"BETTER": (64, 25), "BEST": (96, 100)}  # quality -> (the lips frame's px a side, renders in all)
 # sRGB levels of RMS over the lips that one unit of parameter distance from Fast costs. On 5 looks tried on a training
@@ -36,6 +39,9 @@ LIFT_FLOOR = 0.02  # a product's ratio is divided out as at least this (a black 
 # many px inside the lips' edge. The lips are a few px thick in the frame: 2 px would leave a tenth of them.
 CORE_INSET = 1
 TRUST_SCALE = 0.5  # log colour: a pixel of the lips left 1.65 times off the bare lips' colour has half the trust
+# A bare level fitted beside the product (PhotoLayer.bare_spread > 0) ranges over this many spreads either way of the
+# guess; one spread off costs what the encoder's typical error (refine.SIGMA) costs a product parameter.
+LEVEL_RANGE = 3.0
 
 
 def scene_target(photo: np.ndarray, found, n: int):
@@ -120,24 +126,60 @@ def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], qu
     yield 2
     # The scene's bare region takes the colour of what lies under the layer, as the try-on's takes the photo's: under
     # an opaque product the level of the region under it then divides out, whatever its bare colour was guessed.
-    set_bare(layer, under[target.mask > 0.5].mean(axis=0, dtype=np.float64) / target.cast)
+    albedo = under[target.mask > 0.5].mean(axis=0, dtype=np.float64) / target.cast
+    set_bare(layer, albedo)
     bare = render_look(scene, spec.full_values({"opacity": 0.0}), layer)
     yield 3
+    made = 3
+    share = None
+    if layer.bare_spread > 0:
+        share = bare_share(scene, layer, albedo, bare, {**fast, "opacity": 1.0})
+        region = (target.mask > 0.5)[..., None]  # a bare render scales with the albedo on the region (its sheen too)
+        made = 5
+        yield made
     weights = (255.0 * np.sqrt(trust / max(float(trust.sum()), 1e-6)))[..., None]
     unit = spec.normalise(spec.vector(start))
     wraps = np.array([p.wraps for p in spec.modelled_params])
+    m = unit.size
+    last = {}  # the last product's render: a step of the bare level alone renders nothing
 
     def tried(trial: np.ndarray) -> np.ndarray:
-        values = spec.full_values(spec.values(spec.denormalise(trial)))
-        ratio = worn_over_bare(bare, render_look(scene, values, layer))
+        values = spec.full_values(spec.values(spec.denormalise(trial[:m])))
+        key = trial[:m].tobytes()
+        if key not in last:
+            last.clear()
+            last[key] = worn_over_bare(bare, render_look(scene, values, layer))
+        ratio, prior = last[key], SCENE_PRIOR * (trial[:m] - unit)
+        if share is not None:  # the bare region's albedo times exp(level): what it makes of each pixel scales
+            level = (trial[m] - 0.5) * 2.0 * LEVEL_RANGE * layer.bare_spread
+            opacity = values["opacity"]
+            ratio = ratio + np.expm1(level) * ((1.0 - opacity) * region + opacity * share)
+            prior = np.append(prior, SCENE_PRIOR * SIGMA * level / layer.bare_spread)
         worn = np.clip(linear_to_srgb(composite(under, ratio, soft, values["opacity"])), 0.0, 1.0)  # as a photo is
-        return np.concatenate([(worn * weights).ravel(), SCENE_PRIOR * (trial - unit)])
+        return np.concatenate([(worn * weights).ravel(), prior])
 
-    reference = np.concatenate([(target.frame * weights).ravel(), np.zeros(unit.size)])
-    steps = iter_refine_by_render(tried, reference, unit, renders - 3, wraps=wraps, search="fit")
+    begin = unit if share is None else np.append(unit, 0.5)  # the level starts at the guess
+    wraps = wraps if share is None else np.append(wraps, False)
+    reference = np.concatenate([(target.frame * weights).ravel(), np.zeros(begin.size)])
+    steps = iter_refine_by_render(tried, reference, begin, renders - made, wraps=wraps, search="fit")
     while True:
         try:
-            yield 3 + next(steps)
+            yield made + next(steps)
         except StopIteration as done:
-            fitted = spec.values(spec.denormalise(done.value.unit))
+            fitted = spec.values(spec.denormalise(done.value.unit[:m]))
             return {name: float(fitted[name]) for name in spec.modelled}
+
+
+def bare_share(scene, layer, albedo: np.ndarray, bare: np.ndarray, values: dict[str, float]) -> np.ndarray:
+    """(n, n, 3) in [0, 1]: the share of each pixel of `values`' render (an opaque look) that the bare region's
+    albedo makes, over the bare render `bare` (n, n, 3) linear: 0 where the layer covers the region and outside it, 1
+    on the region beyond the layer's band. Two renders, the bare region at `albedo` (3,) and at half of it: the group
+    mixes the layer over the bare region's shader, so what the albedo makes is linear in it."""
+    from ..renderers.scene_photo import set_bare
+    from ..renderers.tryon import render_look
+
+    worn = render_look(scene, values, layer)
+    set_bare(layer, albedo * 0.5)
+    halved = render_look(scene, values, layer)
+    set_bare(layer, albedo)
+    return np.clip(2.0 * (worn - halved) / np.maximum(bare, RATIO_FLOOR), 0.0, 1.0).astype(np.float32)

@@ -38,6 +38,9 @@ class PhotoLayer:
     attributes: Callable | None = None  # uvs (V, 2) -> {name: (V,) float32}: the point attributes its group reads
     bare: Callable | None = None  # the skin beside it (3,) linear -> the bare region's (3,): what lies under a product
     core_median: tuple[float, float, float] = (1.0, 1.0, 1.0)  # its core's median over its mean, linear, bare
+    # The spread (standard deviation of the log) of the true bare region's level about `bare`'s guess; above 0, Better
+    # and Best fit that level beside the product (blender_addon.matching.photo_scene_fit), where the photo shows it.
+    bare_spread: float = 0.0
 
     @property
     def scene_name(self) -> str:

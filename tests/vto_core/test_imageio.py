@@ -460,3 +460,17 @@ def test_stored_integers_turn_into_exactly_the_floats_read_image_gives(tmp_path,
     floats, _ = read_image(tmp_path / name)
     assert stored.dtype == dtype and stored.shape == floats.shape == (23, 300, 3)  # turned as shown
     assert as_float(stored).dtype == np.float32 and np.array_equal(as_float(stored), floats)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_every_stored_integer_turns_into_openimageio_s_float(dtype):
+    """as_float's product with one scale gives, for every code of the type, the float OpenImageIO's conversion gives."""
+    import OpenImageIO as oiio
+
+    from vto_core.imageio import as_float, float_scale
+
+    codes = np.arange(np.iinfo(dtype).max + 1, dtype=dtype)
+    buf = oiio.ImageBuf(oiio.ImageSpec(codes.size, 1, 1, np.dtype(dtype).name))
+    buf.set_pixels(oiio.ROI(0, codes.size, 0, 1, 0, 1, 0, 1), codes.reshape(1, -1, 1))
+    assert float_scale(dtype) is not None  # the fast path is the one taken
+    assert np.array_equal(as_float(codes.reshape(-1, 1, 1)).ravel(), buf.get_pixels(oiio.FLOAT).ravel())

@@ -41,7 +41,7 @@ def region_frame(mask: np.ndarray, width_share: float) -> tuple[int, int, int, i
     """(x, y, w, h) of the square that frames a region's mask (H, W) as the default scene frames the region: centred
     on the mask's box, whose width is `width_share` of the side (at least the box's height and MIN_SIZE); shrunk to the
     image's shorter side and moved inside the image where it would not fit."""
-    rows, cols = np.nonzero(mask)
+    rows, cols = np.flatnonzero(np.any(mask, axis=1)), np.flatnonzero(np.any(mask, axis=0))  # its box's rows, columns
     height, width = mask.shape
     side = max(math.ceil((cols.max() + 1 - cols.min()) / width_share), rows.max() + 1 - rows.min(), MIN_SIZE)
     side = min(side, height, width)

@@ -118,3 +118,29 @@ def test_better_reads_an_eye_shadow_back_from_a_wrong_start_on_the_right_lid():
     fitted = drain(iter_fit_photo_scene(spec, target, start, "BETTER", samples=8), counts.append)
     assert counts[-1] == SCENE_FIT["BETTER"][1] and all(np.isfinite(v) for v in fitted.values())
     assert colour_miss(fitted, truth) < 0.85 * colour_miss(start, truth)
+
+
+def test_the_bare_lid_shows_where_the_layer_leaves_it_and_nowhere_else():
+    """bare_share: the share of a render that the bare lid's albedo makes is most of a bare render on the lid (its
+    diffuse part: 0.83 of the lid's core here, the rest is the skin shader's sheen), less than that under an opaque
+    shadow (0.37: the band leaves the lid's top bare), and nothing on the skin around the lid."""
+    from blender_addon.matching.photo_scene_fit import bare_share
+    from blender_addon.renderers.scene_photo import set_bare
+    from blender_addon.renderers.tryon import find_regions, render_look, set_photo_region
+    from vto_core.appearance import skin_colour
+    from vto_core.products import EYESHADOW
+
+    spec = get_spec("eyeshadow")
+    photo = read_image(FACE)[0][..., :3]
+    target = scene_target(photo, find_regions(photo, EYESHADOW)[0], SCENE_FIT["BETTER"][0])
+    layer = target.layer
+    scene = set_photo_region(target, 8, 0)
+    albedo = np.asarray(layer.bare(skin_colour(target.frame, target.mask))) / target.cast
+    set_bare(layer, albedo)
+    bare = render_look(scene, spec.full_values({"opacity": 0.0}), layer)
+    look = spec.full_values({**load_presets("eyeshadow")["Mocha Brown"], "opacity": 1.0})
+    worn, shown = (bare_share(scene, layer, albedo, bare, values) for values in (look, {**look, "opacity": 0.0}))
+    core, skin = lips_core(target.mask), feathered(target.mask) == 0
+    assert np.isfinite(worn).all() and worn.min() >= 0 and worn.max() <= 1
+    assert shown[core].mean() > 0.7 and worn[core].mean() < 0.6 * shown[core].mean()
+    assert worn[skin].mean() < 0.02 and shown[skin].mean() < 0.02  # light the lid bounces onto the skin, and noise
