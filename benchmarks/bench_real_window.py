@@ -27,14 +27,10 @@ WARM_GOAL_MS = 20.0  # the encoder's click-to-values goal for a warm click
 LOCATOR_MS = 15.0  # plus the lips locator on a whole portrait (benchmarks/results/locator.md)
 
 
-def shade(values: dict) -> str:
-    return "({:.0f}, {:.0f}, {:.0f}) at opacity {:.2f}, gloss {:.2f}, reflection {:.2f}".format(
-        *(values[k] for k in ("Red", "Green", "Blue", "Opacity", "Gloss", "Reflection")))
-
-
-def eye_colour(values: dict) -> str:
-    return "({:.0f}, {:.0f}, {:.0f}) at opacity {:.2f}".format(*(values[k] for k in ("Red", "Green", "Blue",
-                                                                                  "Opacity")))
+def shade(values: dict, finish: tuple[str, ...] = ("Gloss", "Reflection")) -> str:
+    """'(R, G, B) at opacity O' and each of `finish`'s inputs: a group's values as the panel wrote them."""
+    colour = "({:.0f}, {:.0f}, {:.0f})".format(*(values[k] for k in ("Red", "Green", "Blue")))
+    return f"{colour} at opacity {values['Opacity']:.2f}" + "".join(f", {k.lower()} {values[k]:.2f}" for k in finish)
 
 
 def stall(out: Path) -> str:
@@ -107,8 +103,8 @@ def main() -> None:
            f"the photo) and its thumbnail said \"{hair.get('thumbnail_note', '')}\"" if "found" in hair else "")
         + "."
         + (" The eye-shadow reference is the same portrait wearing Royal Purple (98, 52, 150) on both lids (`vto tryon "
-           "eyeshadow`): Fast wrote {}".format(eye_colour(eyes["first"])) + "".join(
-               f", {quality.title()} {eye_colour(eyes[quality])}" for quality in ("better", "best") if quality in eyes)
+           "eyeshadow`): Fast wrote {}".format(shade(eyes["first"], ())) + "".join(
+               f", {quality.title()} {shade(eyes[quality], ())}" for quality in ("better", "best") if quality in eyes)
            + "." if "first" in eyes else "")
         + ("\n\nWhat went wrong in this run:\n\n" + "\n".join(f"- {p.strip().splitlines()[-1]}" for p in problems)
            if problems else "")

@@ -9,9 +9,8 @@
 # london_wl --set graphics_error=absolute` before lip64l, and london_w `START=out/london_k.onnx STEPS=3000 ...
 # london_w` before london78l; then copied to blender_addon/models/lipstick_encoder.onnx. The one before them
 # (2026-11-27, london_l1) was trained from a193996's file on the first three datasets alone. The datasets resume where
-# they
-# stopped (each is skipped once whole). CPU: about 25 min of rendering (two processes), then STEPS steps on one thread
-# (2,000: 45 min beside other jobs).
+# they stopped (each is skipped once whole). CPU: about 25 min of rendering (two processes), then STEPS steps on one
+# thread (2,000: 45 min beside other jobs).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VTO=.venv/bin/vto
