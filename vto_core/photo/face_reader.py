@@ -36,8 +36,12 @@ RIGHT_MOUTH_CORNER, LEFT_MOUTH_CORNER = 61, 291  # the mouth's corners, image le
 # np.rot90's quarter turns (anticlockwise) of a photo read again when it shows no face upright, or one upside down: a
 # photo on its side or upside down, which BlazeFace, trained on faces near upright, does not see (or sees in part).
 QUARTER_TURNS = (1, 2, 3)
-REFINE_PASSES = 3  # mesh passes on the region the last landmarks give, while the roll still moves by ...
-SETTLED_ROLL = math.radians(5)  # ... more than this (a face turned far from the detector's view settles in 2-3)
+REFINE_PASSES = 6  # mesh passes on the region the last landmarks give, while the roll still moves by ...
+SETTLED_ROLL = math.radians(5)  # ... more than this (a face turned far from the detector's view settles in 2-3) ...
+# ... or, for a rolled face, its size by more than this share: the detector's upright box of a rolled face is too large,
+# and each pass on the region the last landmarks give shrinks the mesh about half the way back (a portrait tilted 30
+# degrees read 10 % wide after its roll settled, which moved its eye-shadow estimate by 2 CIEDE2000).
+SETTLED_SIZE = 0.02
 # The mesh's face logit (before its sigmoid) under which a reading may be upside down: on the 18 benchmark portraits a
 # face read the right way up scores 39-55; turned 180 degrees and read upright, 5.6 at most (31-44 once turned back).
 SURE_FACE_LOGIT = 20.0
@@ -504,18 +508,20 @@ class FaceReader:
         return face, kept, over, abs(roll_of(landmarks[:, :2]))
 
     def settle(self, image: np.ndarray, landmarks: np.ndarray, logit: float) -> tuple[np.ndarray, float, bool]:
-        """(468, 3) landmarks (face logit `logit`) read again on the region they give, until the roll moves less than
-        SETTLED_ROLL or lies within it of upright (at most REFINE_PASSES; an upright face costs one pass, as before):
-        (the landmarks, the last kept pass's face logit, whether the mesh kept the face on the first pass)."""
+        """(468, 3) landmarks (face logit `logit`) read again on the region they give, until the face lies within
+        SETTLED_ROLL of upright, or its roll moves less than that and its size less than SETTLED_SIZE (at most
+        REFINE_PASSES; an upright face costs one pass, as before): (the landmarks, the last kept pass's face logit,
+        whether the mesh kept the face on the first pass)."""
         for attempt in range(REFINE_PASSES):
             refined, refined_logit = self.mesh_read(image, *landmarks_region(landmarks[:, :2]))
             if sigmoid(np.float64(refined_logit)) < MIN_FACE_SCORE:
                 return landmarks, logit, attempt > 0
             roll = roll_of(refined[:, :2])
             moved = abs(turn_between(roll, roll_of(landmarks[:, :2])))
+            grown = abs(face_size(refined[:, :2]) / face_size(landmarks[:, :2]) - 1.0)
             landmarks, logit = refined, refined_logit
-            if moved < SETTLED_ROLL or abs(roll) < SETTLED_ROLL:  # settled, or upright: read as it always was
-                break
+            if abs(roll) < SETTLED_ROLL or (attempt and moved < SETTLED_ROLL and grown < SETTLED_SIZE):
+                break  # upright; or rolled, and settled over two passes (a first pass may move it little by chance)
         return landmarks, logit, True
 
 _READERS: dict[tuple, FaceReader] = {}

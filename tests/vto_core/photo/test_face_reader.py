@@ -239,6 +239,23 @@ def test_an_upright_face_costs_one_refine_pass_and_a_rolled_one_more(astronaut, 
     assert len(reads) > 1 and abs(fr.roll_of(settled[:, :2])) < np.radians(10)  # read again until its roll settles
 
 
+def test_a_rolled_face_read_from_too_large_a_region_settles_its_size(reader, astronaut, monkeypatch):
+    # A rolled face's first landmarks come from the detector's upright box, too large: each pass on the region the
+    # last landmarks give shrinks them part of the way back. Its roll settles before its size does.
+    import OpenImageIO as oiio
+
+    upright = fr.face_size(reader.read(astronaut).landmarks)
+    rolled = oiio.ImageBufAlgo.rotate(oiio.ImageBuf(astronaut), np.radians(30), recompute_roi=True)
+    rolled = rolled.get_pixels(oiio.FLOAT)[..., :3]
+    landmarks = reader.read(rolled).landmarks
+    centre = landmarks.mean(axis=0)
+    start = np.concatenate([(landmarks - centre) * 1.3 + centre, np.zeros((len(landmarks), 1))], 1)
+    settled = fr.face_size(reader.settle(rolled, start, 40.0)[0][:, :2])
+    assert settled / upright == pytest.approx(1.0, abs=0.03)
+    monkeypatch.setattr(fr, "SETTLED_SIZE", np.inf)  # the roll alone: stops while the mesh is still too large
+    assert fr.face_size(reader.settle(rolled, start, 40.0)[0][:, :2]) / upright > 1.05
+
+
 def test_an_upside_down_group_reads_every_face_and_the_largest(reader, astronaut):
     # Three faces, largest on the left. Upside down, the detector alone finds two of them and takes a smaller face's
     # upright box for the largest; the photo turned back finds all three, and the landmarks say which is largest.
