@@ -509,9 +509,9 @@ class FaceReader:
 
     def settle(self, image: np.ndarray, landmarks: np.ndarray, logit: float) -> tuple[np.ndarray, float, bool]:
         """(468, 3) landmarks (face logit `logit`) read again on the region they give, until the face lies within
-        SETTLED_ROLL of upright, or its roll moves less than that and its size less than SETTLED_SIZE (at most
-        REFINE_PASSES; an upright face costs one pass, as before): (the landmarks, the last kept pass's face logit,
-        whether the mesh kept the face on the first pass)."""
+        SETTLED_ROLL of upright, or, on a second pass or later, its roll moves less than that and its size less than
+        SETTLED_SIZE (at most REFINE_PASSES; a face read upright costs one pass, as before): (the landmarks, the last
+        kept pass's face logit, whether the mesh kept the face on the first pass)."""
         for attempt in range(REFINE_PASSES):
             refined, refined_logit = self.mesh_read(image, *landmarks_region(landmarks[:, :2]))
             if sigmoid(np.float64(refined_logit)) < MIN_FACE_SCORE:
