@@ -238,10 +238,9 @@ def lid_colours(photo: np.ndarray, found, hand: np.ndarray,
     """The mean display colour (3,) inside a hand-drawn lid polygon `hand` (K, 2 photo px) of the photo, and of each
     look worn on this lid as Better and Best see it (the photo's light, the bare lid from the skin beside it:
     PhotoLayer.bare; blender_addon.matching.photo_scene_fit), 64 px, TRYON_SAMPLES spp: {"photo" | look: colour}."""
-    from blender_addon.matching.photo_scene_fit import scene_target
+    from blender_addon.matching.photo_scene_fit import bare_guess, scene_target
     from blender_addon.renderers.scene_photo import set_bare
     from blender_addon.renderers.tryon import render_look, render_size, set_photo_region
-    from vto_core.appearance import skin_colour
     from vto_core.colour import linear_to_srgb, srgb_to_linear
     from vto_core.photo.face_reader import apply_matrix, polygon_mask
     from vto_core.photo.tryon import composite, feathered, worn_over_bare
@@ -251,7 +250,7 @@ def lid_colours(photo: np.ndarray, found, hand: np.ndarray,
     assert render_size(target) == target.n  # the render and the frame share their pixels
     inside = polygon_mask(apply_matrix(target.to_frame, hand), 0, 0, target.n, target.n) & (target.mask > 0.5)
     spec, layer = get_spec("eyeshadow"), target.layer
-    predicted = np.asarray(layer.bare(skin_colour(target.frame, target.mask)), np.float32)
+    predicted = np.asarray(bare_guess(target), np.float32)
     scene = set_photo_region(target, TRYON_SAMPLES, 0)
     set_bare(layer, predicted / target.cast)
     bare = render_look(scene, spec.full_values({"opacity": 0.0}), layer)

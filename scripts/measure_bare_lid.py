@@ -18,9 +18,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def main() -> None:
-    from blender_addon.matching.photo_scene_fit import lips_core, scene_target
+    from blender_addon.matching.photo_scene_fit import bare_guess, lips_core, scene_target
     from blender_addon.shipped import photo_reader
-    from vto_core.appearance import skin_colour
     from vto_core.colour import srgb_to_linear
     from vto_core.imageio import read_image
     from vto_core.products import EYESHADOW
@@ -40,7 +39,7 @@ def main() -> None:
             target = scene_target(photo, where, 64)
             if target is None:
                 continue
-            guess = np.asarray(target.layer.bare(skin_colour(target.frame, target.mask)))
+            guess = np.asarray(bare_guess(target))
             actual = np.median(srgb_to_linear(target.frame)[lips_core(target.mask)], axis=0)
             ratios.append(actual / (guess * np.asarray(target.layer.core_median)))
         logs += [np.log(r) for r in ratios]

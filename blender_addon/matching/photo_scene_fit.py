@@ -66,6 +66,12 @@ def scene_target(photo: np.ndarray, found, n: int):
     return target
 
 
+def bare_guess(target) -> np.ndarray:
+    """(3,) linear: what the bare region of `target` (scene_target) is guessed to be, from the skin beside it
+    (its layer's PhotoLayer.bare)."""
+    return target.layer.bare(skin_colour(target.frame, target.mask))
+
+
 def lips_core(mask: np.ndarray) -> np.ndarray:
     """(n, n) 0/1 -> (n, n) bool: the lips CORE_INSET px in from their edge (the whole mask where that leaves
     nothing)."""
@@ -111,7 +117,7 @@ def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], qu
         raise VtoError(f"a fit in the photo's scene is {' or '.join(SCENE_FIT)}, got '{quality}'")
     renders = SCENE_FIT[quality][1]
     layer = target.layer
-    predicted = layer.bare(skin_colour(target.frame, target.mask))
+    predicted = bare_guess(target)
     scene = set_photo_region(target, samples, seed)
     set_bare(layer, predicted / target.cast)
     bare = render_look(scene, spec.full_values({"opacity": 0.0}), layer)

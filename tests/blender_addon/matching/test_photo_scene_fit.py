@@ -124,10 +124,9 @@ def test_the_bare_lid_shows_where_the_layer_leaves_it_and_nowhere_else():
     """bare_share: the share of a render that the bare lid's albedo makes is most of a bare render on the lid (its
     diffuse part: 0.83 of the lid's core here, the rest is the skin shader's sheen), less than that under an opaque
     shadow (0.37: the band leaves the lid's top bare), and nothing on the skin around the lid."""
-    from blender_addon.matching.photo_scene_fit import bare_share
+    from blender_addon.matching.photo_scene_fit import bare_guess, bare_share
     from blender_addon.renderers.scene_photo import set_bare
     from blender_addon.renderers.tryon import find_regions, render_look, set_photo_region
-    from vto_core.appearance import skin_colour
     from vto_core.products import EYESHADOW
 
     spec = get_spec("eyeshadow")
@@ -135,7 +134,7 @@ def test_the_bare_lid_shows_where_the_layer_leaves_it_and_nowhere_else():
     target = scene_target(photo, find_regions(photo, EYESHADOW)[0], SCENE_FIT["BETTER"][0])
     layer = target.layer
     scene = set_photo_region(target, 8, 0)
-    albedo = np.asarray(layer.bare(skin_colour(target.frame, target.mask))) / target.cast
+    albedo = np.asarray(bare_guess(target)) / target.cast
     set_bare(layer, albedo)
     bare = render_look(scene, spec.full_values({"opacity": 0.0}), layer)
     look = spec.full_values({**load_presets("eyeshadow")["Mocha Brown"], "opacity": 1.0})
