@@ -1,10 +1,12 @@
-"""The bare lips from the skin (vto_core.photo.bare_lips): its coefficients refitted on the training faces of data/faces
-that wear no lipstick, and its error on the faces no fit saw.
+"""The bare lips from the skin (vto_core.photo.bare_lips): its chroma coefficients refitted on the training faces that
+wear no lipstick (data/faces and the London Set), and its error on the faces no fit saw.
 
     python -m benchmarks.bench_bare_lips
 
 Each face is framed as the try-on frames it (64 px, blender_addon.renderers.tryon.photo_lips); the skin is
-vto_core.appearance.skin_colour's, the lips their mean linear colour. Writes benchmarks/results/bare_lips.md.
+vto_core.appearance.skin_colour's in the light's own white (the photo's light colour divided out, as Better does), the
+lips their mean linear colour. Beside the module's model: the luminance-only model it replaced (fitted on data/faces
+alone), refitted here. Writes benchmarks/results/bare_lips.md.
 """
 
 from __future__ import annotations
@@ -18,11 +20,13 @@ from benchmarks.bench_real_photos import delta_e
 from benchmarks.common import write_table
 
 ROOT = Path(__file__).resolve().parent.parent
-FACES = ROOT / "data" / "faces"
+SETS = {"data/faces": ROOT / "data" / "faces" / "faces.json",
+        "London Set": ROOT / "data" / "faces" / "london" / "faces.json"}
 
 
-def measured() -> list[tuple[dict, np.ndarray, np.ndarray]]:
-    """(entry, skin (3,), lips (3,)) linear, for every face of data/faces wearing no lipstick whose lips are found."""
+def measured() -> list[tuple[str, dict, np.ndarray, np.ndarray]]:
+    """(set, entry, skin (3,) in the light's white, lips (3,) likewise) linear, for every face of SETS wearing no
+    lipstick whose lips are found."""
     from blender_addon.renderers.tryon import photo_lips
     from vto_core.appearance import skin_colour
     from vto_core.colour import srgb_to_linear
@@ -30,47 +34,71 @@ def measured() -> list[tuple[dict, np.ndarray, np.ndarray]]:
     from vto_core.imageio import read_image
 
     rows = []
-    for entry in json.loads((FACES / "faces.json").read_text()):
-        if entry.get("lipstick") != "none":
-            continue
-        try:
-            target = photo_lips(read_image(ROOT / entry["file"])[0][..., :3], 64)
-        except VtoError:
-            continue
-        skin = skin_colour(target.frame, target.mask)
-        if skin is not None:
-            rows.append((entry, skin, srgb_to_linear(target.frame[target.mask > 0.5]).mean(axis=0)))
+    for name, records in SETS.items():
+        for entry in json.loads(records.read_text()):
+            if entry.get("lipstick") != "none":
+                continue
+            try:
+                target = photo_lips(read_image(ROOT / entry["file"])[0][..., :3], 64)
+            except VtoError:
+                continue
+            skin = skin_colour(target.frame, target.mask)
+            if skin is not None:
+                lips = srgb_to_linear(target.frame[target.mask > 0.5]).mean(axis=0)
+                rows.append((name, entry, skin / target.cast, lips / target.cast))
     return rows
 
 
+def luminance_only(train: list):
+    """The model before chroma: log r linear in the skin's log luminance alone, fitted on data/faces' `train` rows."""
+    from vto_core.colour import luminance
+
+    def lightness(skin):
+        return min(np.log(max(float(luminance(skin)), 1e-3)), 0.0)
+
+    faces = [r for r in train if r[0] == "data/faces"]
+    fit = np.array([np.polyfit([lightness(s) for _, _, s, _ in faces],
+                               np.log([lips[c] / s[c] for _, _, s, lips in faces]), 1) for c in range(3)])
+    return lambda skin: skin * np.exp(fit[:, 0] * lightness(skin) + fit[:, 1])
+
+
 def main() -> None:
-    from vto_core.colour import linear_to_srgb, luminance
+    from vto_core.colour import linear_to_srgb
     from vto_core.photo import bare_lips
 
     rows = measured()
-    train = [r for r in rows if r[0]["split"] == "train"]
-    lightness = np.log([float(luminance(skin)) for _, skin, _ in train])
-    ratios = np.log([lips / skin for _, skin, lips in train])
-    refit = np.array([np.polyfit(lightness, ratios[:, c], 1) for c in range(3)])  # (3, 2): slope, value at 1
-    others = [r for r in rows if r[0]["split"] != "train"]
+    train = [r for r in rows if r[1]["split"] == "train"]
+    design = np.array([bare_lips.features(skin) for _, _, skin, _ in train])
+    held = np.array([bare_lips.RATIO_SLOPE * bare_lips.lightness(skin) for _, _, skin, _ in train])  # the slope kept
+    logs = np.log([lips / skin for _, _, skin, lips in train]) - held
+    refit = np.linalg.lstsq(design, logs, rcond=None)[0]  # (3, 3)
+    before = luminance_only(train)
     result = []
-    for label, group in (("train (fitted on)", train), ("held out and evaluation", others)):
-        errors = [delta_e(linear_to_srgb(bare_lips.bare_lips(skin)), linear_to_srgb(lips)) for _, skin, lips in group]
-        same = [delta_e(linear_to_srgb(skin), linear_to_srgb(lips)) for _, skin, lips in group]
-        result.append([label, len(group), f"{np.median(errors):.2f}", f"{np.max(errors):.2f}",
-                       f"{np.median(same):.2f}"])
+    for name in SETS:
+        others = [r for r in rows if r[0] == name and r[1]["split"] != "train"]
+        fitted = [r for r in train if r[0] == name]
+        for label, group in (("train (fitted on)", fitted), ("held out and evaluation", others)):
+            def errors(model):
+                return [delta_e(linear_to_srgb(model(skin)), linear_to_srgb(lips)) for _, _, skin, lips in group]
 
-    def listed(values) -> str:
-        return ", ".join(f"{v:.3f}" for v in values)
+            now = errors(bare_lips.bare_lips)
+            result.append([f"{name}, {label}", len(group), f"{np.median(now):.2f}", f"{np.max(now):.2f}",
+                           f"{np.median(errors(before)):.2f}", f"{np.median(errors(lambda s: s)):.2f}"])
+
+    def listed(matrix) -> str:
+        return "; ".join(", ".join(f"{v:.3f}" for v in row) for row in matrix)
 
     notes = "\n".join([
-        f"Refitted slope per channel: {listed(refit[:, 0])} (module: {listed(bare_lips.RATIO_SLOPE)}); value at "
-        f"luminance 1: {listed(refit[:, 1])} (module: {listed(bare_lips.RATIO_AT_1)}).",
-        "", "Error: CIEDE2000 between the bare lips predicted from the skin and the lips' mean colour. 'skin as lips': "
-        "the same against the skin's own colour, what no model gives.",
+        f"Refitted coefficients (rows: 1, log R/G, log B/G; columns R, G, B; the slope on log luminance held at "
+        f"{listed([bare_lips.RATIO_SLOPE])}): {listed(refit)} "
+        f"(module: {listed(bare_lips.COEFFICIENTS)}).",
+        "", "Error: CIEDE2000 between the bare lips predicted from the skin and the lips' mean colour. 'luminance "
+        "only': the model before (log r linear in the skin's log luminance, fitted on data/faces alone); 'skin as "
+        "lips': the skin's own colour, what no model gives.",
     ])
     write_table("bare_lips", "The bare lips from the skin",
-                ["faces", "count", "median CIEDE2000", "largest", "skin as lips, median"], result, notes)
+                ["faces", "count", "median CIEDE2000", "largest", "luminance only, median", "skin as lips, median"],
+                result, notes)
 
 
 if __name__ == "__main__":

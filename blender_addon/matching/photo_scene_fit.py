@@ -68,8 +68,8 @@ def scene_target(photo: np.ndarray, found, n: int):
 
 def bare_guess(target) -> np.ndarray:
     """(3,) linear: what the bare region of `target` (scene_target) is guessed to be, from the skin beside it
-    (its layer's PhotoLayer.bare)."""
-    return target.layer.bare(skin_colour(target.frame, target.mask))
+    (its layer's PhotoLayer.bare), guessed in the light's own white so that the light's colour does not move it."""
+    return target.layer.bare(skin_colour(target.frame, target.mask) / target.cast) * target.cast
 
 
 def lips_core(mask: np.ndarray) -> np.ndarray:

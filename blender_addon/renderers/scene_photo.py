@@ -36,7 +36,7 @@ class PhotoLayer:
     mesh: Callable  # (points (468, 2) frame px, depth (468,) or None, region) -> (vertices (V, 3), quads, uvs (V, 2))
     min_width: float  # px across the region (face_regions.region_width) under which it is too small to render onto
     attributes: Callable | None = None  # uvs (V, 2) -> {name: (V,) float32}: the point attributes its group reads
-    bare: Callable | None = None  # the skin beside it (3,) linear -> the bare region's (3,): what lies under a product
+    bare: Callable | None = None  # the skin beside it (3,) linear, in the light's white -> the bare region's (3,)
     core_median: tuple[float, float, float] = (1.0, 1.0, 1.0)  # its core's median over its mean, linear, bare
     # The spread (standard deviation of the log) of the true bare region's level about `bare`'s guess; above 0, Better
     # and Best fit that level beside the product (blender_addon.matching.photo_scene_fit), where the photo shows it.

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from vto_core.photo.bare_lips import RATIO_AT_1, RATIO_SLOPE, bare_lips, lips_ratio
+from vto_core.photo.bare_lips import CHROMA_RANGE, COEFFICIENTS, RATIO_SLOPE, bare_lips, features, lips_ratio
 
 LIGHT_SKIN = np.array([0.42, 0.20, 0.13])  # linear: a typical light training face (data/faces)
 DARK_SKIN = np.array([0.21, 0.086, 0.033])
@@ -13,17 +13,33 @@ LUMINANCE = float(LIGHT_SKIN @ [0.2126, 0.7152, 0.0722])
 def test_bare_lips_are_redder_than_the_skin_they_sit_in():
     lips = bare_lips(LIGHT_SKIN)
     assert lips[1] / lips[0] < LIGHT_SKIN[1] / LIGHT_SKIN[0] - 0.03  # less green for their red
-    np.testing.assert_allclose(lips, LIGHT_SKIN * np.exp(RATIO_SLOPE * np.log(LUMINANCE) + RATIO_AT_1), rtol=1e-3)
+    terms = np.array([1.0, np.log(0.42 / 0.20), np.log(0.13 / 0.20)])
+    np.testing.assert_allclose(lips, LIGHT_SKIN * np.exp(RATIO_SLOPE * np.log(LUMINANCE) + terms @ COEFFICIENTS),
+                               rtol=1e-3)
 
 
 def test_darker_skins_have_lips_nearer_their_own_colour():
     assert (lips_ratio(DARK_SKIN) > lips_ratio(LIGHT_SKIN)).all()
 
 
-def test_the_ratio_does_not_depend_on_the_lights_colour_only_on_the_skins_lightness():
-    warm = LIGHT_SKIN * np.array([1.3, 1.0, 0.6])
-    warm *= LUMINANCE / float(warm @ [0.2126, 0.7152, 0.0722])  # the same luminance under a warm light
-    np.testing.assert_allclose(bare_lips(warm) / warm, lips_ratio(LIGHT_SKIN), rtol=2e-3)
+def test_a_less_red_skin_has_lips_darker_and_redder_against_it():
+    # the London Set's studio skins (red over green 1.6) against data/faces' (2.1), at the same luminance
+    pale = np.array([0.34, 0.2125, 0.15])
+    pale *= LUMINANCE / float(pale @ [0.2126, 0.7152, 0.0722])
+    ratio, light = lips_ratio(pale), lips_ratio(LIGHT_SKIN)
+    assert ratio[1] < light[1] - 0.05
+    assert ratio[0] / ratio[1] > light[0] / light[1]
+
+
+def test_an_exposure_moves_the_ratio_by_the_luminance_slope_alone():
+    # chroma does not change with an exposure, so a photo +1 EV brighter moves r only as RATIO_SLOPE says
+    np.testing.assert_allclose(lips_ratio(LIGHT_SKIN * 2.0) / lips_ratio(LIGHT_SKIN), 2.0 ** RATIO_SLOPE, rtol=1e-9)
+
+
+def test_a_skin_chroma_outside_the_training_range_reads_as_its_edge():
+    edge = np.array([np.exp(CHROMA_RANGE[0][1]), 1.0, np.exp(CHROMA_RANGE[1][0])]) * 0.2
+    far = np.array([np.exp(CHROMA_RANGE[0][1] + 2.0), 1.0, np.exp(CHROMA_RANGE[1][0] - 2.0)]) * 0.2
+    np.testing.assert_allclose(features(far), features(edge))
 
 
 @pytest.mark.parametrize("skin", [np.zeros(3), np.full(3, 1e6), np.array([np.nan, 0.2, 0.1]),
