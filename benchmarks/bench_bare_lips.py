@@ -51,10 +51,7 @@ def measured() -> list[tuple[str, dict, np.ndarray, np.ndarray]]:
 
 def luminance_only(train: list):
     """The model before chroma: log r linear in the skin's log luminance alone, fitted on data/faces' `train` rows."""
-    from vto_core.colour import luminance
-
-    def lightness(skin):
-        return min(np.log(max(float(luminance(skin)), 1e-3)), 0.0)
+    from vto_core.photo.bare_lips import lightness
 
     faces = [r for r in train if r[0] == "data/faces"]
     fit = np.array([np.polyfit([lightness(s) for _, _, s, _ in faces],
