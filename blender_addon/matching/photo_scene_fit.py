@@ -141,12 +141,12 @@ def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], qu
     # likely show the real lid it misses.
     albedo, made, share = predicted / target.cast, 2, None
     if layer.bare_spread > 0:
-        albedo = under[target.mask > 0.5].mean(axis=0, dtype=np.float64) / target.cast
+        region = (target.mask > 0.5)[..., None]  # a bare render scales with the albedo on the region (its sheen too)
+        albedo = under[region[..., 0]].mean(axis=0, dtype=np.float64) / target.cast
         set_bare(layer, albedo)
         bare = render_look(scene, spec.full_values({"opacity": 0.0}), layer)
         yield 3
         share = bare_share(scene, layer, albedo, bare, {**fast, "opacity": 1.0})
-        region = (target.mask > 0.5)[..., None]  # a bare render scales with the albedo on the region (its sheen too)
         made = 5
         yield made
     weights = (255.0 * np.sqrt(trust / max(float(trust.sum()), 1e-6)))[..., None]

@@ -57,10 +57,10 @@ def test_better_keeps_a_start_the_photo_already_shows(made_up):
 
 
 def test_better_keeps_a_dark_opaque_product_the_photo_shows():
-    """Blackened Plum (opaque, near black) tried on a London training face and fitted from the truth: the truth still renders the
-    photo closest, so the fit stays opaque and as dark. The scene's bare lips must be what lies under the layer is
-    scaled to: taken as that layer's mean over the whole mask (its edge left bright orange where a dark product is
-    divided out of skin), they made a thinner, lighter coat render the photo closer (on this face opacity 0.93)."""
+    """Blackened Plum (opaque, near black) tried on a London training face and fitted from the truth: the truth still
+    renders the photo closest, so the fit stays opaque and as dark. The scene's bare lips must be what lies under the
+    layer is scaled to: taken as that layer's mean over the whole mask (its edge left bright orange where a dark
+    product is divided out of skin), they made a thinner, lighter coat render the photo closer (here opacity 0.93)."""
     truth = {k: SPEC.check_values(load_presets("lipstick")["Blackened Plum"])[k] for k in SPEC.modelled}
     face = FACE.parent / "london" / "london_012_neutral.jpg"  # a training person
     photo = tryon_lipstick(read_image(face)[0][..., :3], SPEC.full_values(truth), samples=8)
