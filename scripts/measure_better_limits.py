@@ -2,6 +2,7 @@
 training people, read back by Fast and by Better, and by Better given what a photo cannot give it.
 
     PYTHONPATH=. .venv/bin/python scripts/measure_better_limits.py [--faces 8] [--work out/better_limits]
+        [--methods "fast|better|trust 0.25: TRUST_SCALE=0.25|..."]
 
 Products: DEVELOPMENT, 10 presets that are not among bench_skin_tones' products. Faces: the London Set's training
 people, neutral (the few not white first). Methods:
@@ -9,7 +10,8 @@ people, neutral (the few not white first). Methods:
   better, true bare            the bare lips under the layer taken from the unmade photo instead of guessed;
   better, true bare, at truth  the same, the fit started at the truth instead of at Fast;
   better, true bare, prior 8   the same from Fast, with a weaker pull towards it (SCENE_PRIOR 8);
-  better, bare level 0.2       the bare lips' level fitted beside the product (PhotoLayer.bare_spread 0.2).
+  better, bare level 0.2       the bare lips' level fitted beside the product (PhotoLayer.bare_spread 0.2);
+  LABEL: NAME=VALUE; ...       Better with constants of blender_addon.matching.photo_scene_fit set (--methods).
 Truth and estimates are compared as products: their apparent colour on the default lips (bench_skin_tones.apparent_lab),
 CIEDE2000. Every estimate is kept in --work/looks.jsonl (a killed run resumes); prints the median and mean per method.
 """
@@ -61,9 +63,17 @@ def with_method(method: str, bare_photo: np.ndarray, truth: dict[str, float]):
         fit.SCENE_PRIOR = 8.0
     if "bare level" in method:
         side.__dict__["photo_layer"] = dataclasses.replace(side.photo_layer, bare_spread=0.2)
+    constants = {name: getattr(fit, name) for name in vars(fit) if name.isupper()}
+    for setting in method.partition(":")[2].split(";") if ":" in method else ():
+        name, value = (part.strip() for part in setting.split("="))
+        if name not in constants:
+            raise SystemExit(f"photo_scene_fit has no constant {name}")
+        setattr(fit, name, type(constants[name])(value))
 
     def undo():
         fit.scene_target, fit.bare_guess, fit.iter_fit_photo_scene, fit.SCENE_PRIOR = saved[:4]
+        for name, value in constants.items():
+            setattr(fit, name, value)
         side.__dict__["photo_layer"] = saved[4]
     return undo
 
@@ -77,8 +87,10 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--faces", type=int, default=8)
     parser.add_argument("--work", default=str(ROOT / "out" / "better_limits"))
+    parser.add_argument("--methods", default="|".join(METHODS), help="'|'-separated methods (see above)")
     args = parser.parse_args(argv)
     work = Path(args.work)
+    methods = args.methods.split("|")
     work.mkdir(parents=True, exist_ok=True)
     kept = work / "looks.jsonl"
     rows = {}
@@ -93,7 +105,7 @@ def main(argv: list[str] | None = None) -> None:
         for name in DEVELOPMENT:
             row = rows.setdefault((record["file"], name), {"face": record["file"], "product": name,
                                                            "truth": apparent_lab(presets[name]).tolist(), "lab": {}})
-            todo = [m for m in METHODS if m not in row["lab"]]
+            todo = [m for m in methods if m not in row["lab"]]
             if not todo:
                 continue
             worn = work / f"{Path(record['file']).stem}_{name.replace(' ', '_')}.png"
@@ -109,8 +121,8 @@ def main(argv: list[str] | None = None) -> None:
             with kept.open("a") as out:
                 out.write(json.dumps(row) + "\n")
         print(f"{record['file']} done", file=sys.stderr, flush=True)
-    looks = [r for r in rows.values() if all(m in r["lab"] for m in METHODS)]
-    for method in METHODS:
+    looks = [r for r in rows.values() if all(m in r["lab"] for m in methods)]
+    for method in methods:
         error = [float(ciede2000(np.array(r["truth"]), np.array(r["lab"][method]))) for r in looks]
         print(f"{method:30s} looks {len(looks)}  median CIEDE2000 {np.median(error):.2f}  mean {np.mean(error):.2f}")
 

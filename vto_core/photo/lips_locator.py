@@ -17,10 +17,19 @@ import numpy as np
 from ..colour import srgb_to_lab
 from ..errors import VtoError
 from ..products import LIPS
-from .face_reader import FaceRead, FaceReader, as_rgb, cached_reader, reduce
+from .face_reader import FaceRead, FaceReader, as_rgb, cached_reader, polygon_mask, reduce
 from .face_regions import region_mask, region_polygons
 
 LIP_OUTER, LIP_INNER = (list(loop) for loop in LIPS.loops)  # the face mesh's lip loops (vto_core.products.LIPS)
+# The inner loop's points facing each other across the mouth: LIP_INNER[i] below, LIP_INNER[20 - i] above (0 and 10
+# are the corners).
+FACING = [(i, len(LIP_INNER) - i) for i in range(1, len(LIP_INNER) // 2)]
+# A mouth is open where its inner contour holds teeth (a share of its pixels TEETH_LIFT L* above the lips' median) or
+# a dark opening (CAVITY_DROP below). On the London Set and the NASA portraits (out of 111 faces), closed mouths hold
+# no pixel so bright (0.00-0.01 of them) and smiles with teeth 0.05-0.67; a closed mouth whose inner contour is not
+# closed left a band through the lips bare in the try-on (3-25 % of the lips on the skin-tone benchmark's faces).
+TEETH_LIFT, TEETH_SHARE = 15.0, 0.03
+CAVITY_DROP, CAVITY_SHARE = 25.0, 0.3
 
 # The close-up test (see close_up_test): the picture reduced to CLOSE_UP_SIZE px on its longer side.
 CLOSE_UP_SIZE = 48
@@ -32,7 +41,8 @@ MIN_LENS_MATCH, LENS_MARGIN = 0.4, 0.1
 class LipsFound:
     """What LipsLocator.locate found in an image."""
 
-    mask: np.ndarray  # (H, W) float32 0/1: the lips (outer contour minus inner: no teeth, no mouth opening)
+    mask: np.ndarray  # (H, W) float32 0/1: the lips (outer contour minus inner: no teeth, no mouth opening; a closed
+    # mouth's inner contour is closed first, closed_mouth)
     box: tuple[int, int, int, int]  # x, y, w, h of the mask's tight box
     outer: np.ndarray  # (K, 2) float32 x, y of the outer lip contour in order; empty for a close-up
     inner: np.ndarray  # (L, 2) float32 the inner contour; empty for a close-up
@@ -163,6 +173,9 @@ class LipsLocator:
         if face is not None:
             landmarks = face.landmarks
             outer, inner = region_polygons(landmarks, LIPS)
+            if mouth_closed(image, outer, inner):
+                landmarks = closed_mouth(landmarks)
+                inner = landmarks[LIP_INNER]
             mask, box = region_mask([outer, inner], height, width)
             if not box[2]:
                 raise VtoError("no lips found: the face is too small in this image (its lips cover no pixel); "
@@ -175,6 +188,36 @@ class LipsLocator:
                            "give a mask")
         return close_up(image.shape[:2], lens, rules["lens"] * LENS_MARGIN + MIN_LENS_MATCH,
                         "no face found: the whole image is taken as a close-up of lips")
+
+
+def mouth_closed(image: np.ndarray, outer: np.ndarray, inner: np.ndarray) -> bool:
+    """Whether the mouth inside the inner lip contour (L, 2) is closed: no teeth and no dark opening there, against
+    the lips between it and the outer contour (K, 2), in the (H, W, 3) display image. True where it holds no pixel."""
+    x0, y0 = (max(0, int(math.floor(v))) for v in outer.min(axis=0))
+    x1 = min(image.shape[1], int(math.ceil(outer[:, 0].max())))
+    y1 = min(image.shape[0], int(math.ceil(outer[:, 1].max())))
+    if x1 <= x0 or y1 <= y0:
+        return True
+    box = (x0, y0, x1 - x0, y1 - y0)
+    opening = polygon_mask(inner, *box)
+    lips = polygon_mask(outer, *box) & ~opening
+    if not opening.any() or not lips.any():
+        return True
+    lightness = srgb_to_lab(np.clip(image[y0:y1, x0:x1], 0.0, 1.0))[..., 0]
+    middle = float(np.median(lightness[lips]))
+    inside = lightness[opening]
+    return bool(np.mean(inside > middle + TEETH_LIFT) < TEETH_SHARE and np.mean(inside < middle - CAVITY_DROP)
+                < CAVITY_SHARE)
+
+
+def closed_mouth(landmarks: np.ndarray) -> np.ndarray:
+    """(468, 2) -> (468, 2): the inner lip contour's facing points moved together onto the line between the lips, so
+    that the lips of a closed mouth are whole (the face mesh often leaves a gap between them)."""
+    landmarks = np.array(landmarks, np.float32)
+    for below, above in FACING:
+        middle = (landmarks[LIP_INNER[below]] + landmarks[LIP_INNER[above]]) / 2
+        landmarks[LIP_INNER[below]] = landmarks[LIP_INNER[above]] = middle
+    return landmarks
 
 
 def close_up(shape: tuple[int, int], lens: tuple[float, float, float, float], score: float, note: str

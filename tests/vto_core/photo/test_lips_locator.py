@@ -190,3 +190,44 @@ def test_the_face_lips_and_hair_modules_import_nothing_blender_lacks():
             " if m in sys.modules]\nprint(','.join(bad))\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
     assert done.returncode == 0 and done.stdout.strip() == "", done.stdout + done.stderr[-500:]
+
+
+def test_a_closed_mouths_lips_are_whole(locator):
+    # London Set 070 (neutral, mouth closed): the face mesh leaves a band between its inner contours (12 % of the
+    # lips); the locator closes it, so the mask and the try-on's mesh hold the whole lips.
+    from vto_core.imageio import read_image
+
+    photo = read_image(ROOT / "data" / "faces" / "london" / "london_070_neutral.jpg")[0][..., :3]
+    found = locator.locate(photo)
+    inner = found.inner
+    for below, above in ll.FACING:
+        assert np.allclose(inner[below], inner[above])
+    assert np.allclose(found.landmarks[ll.LIP_INNER], inner)
+    x, y, w, h = found.box
+    whole = polygon_mask(found.outer, x, y, w, h)
+    assert abs(found.mask[y:y + h, x:x + w].sum() - whole.sum()) <= 0.02 * whole.sum()
+    raw = fr.cached_reader(DETECTOR, MESH).read(photo).landmarks[ll.LIP_INNER]
+    assert polygon_mask(raw, x, y, w, h).sum() > 0.05 * whole.sum()  # the band that the mesh left
+
+
+def lips_box(inner_colour) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A 40 x 40 image of lips (display 0.6, 0.3, 0.3) whose inner contour (a 20 x 6 box) shows `inner_colour`."""
+    image = np.full((40, 40, 3), (0.6, 0.3, 0.3), np.float32)
+    image[17:23, 10:30] = inner_colour
+    outer = np.array([[2, 2], [38, 2], [38, 38], [2, 38]], np.float32)
+    inner = np.array([[10, 17], [30, 17], [30, 23], [10, 23]], np.float32)
+    return image, outer, inner
+
+
+@pytest.mark.parametrize("inner_colour, closed", [((0.55, 0.28, 0.28), True), ((0.95, 0.95, 0.9), False),
+                                                  ((0.03, 0.02, 0.02), False)])
+def test_teeth_or_a_dark_opening_keep_the_mouth_open(inner_colour, closed):
+    image, outer, inner = lips_box(inner_colour)
+    assert ll.mouth_closed(image, outer, inner) is closed
+
+
+def test_a_mouth_with_no_inner_pixel_out_of_the_image_or_constant_is_closed():
+    image, outer, inner = lips_box((0.95, 0.95, 0.9))
+    assert ll.mouth_closed(image, outer, np.full((4, 2), 20.0, np.float32)) is True
+    assert ll.mouth_closed(image, outer + 100.0, inner + 100.0) is True
+    assert ll.mouth_closed(np.full_like(image, 7.0), outer, inner) is True  # a constant HDR image: nothing to tell
