@@ -45,7 +45,7 @@ class LipsFound:
     # mouth's inner contour is closed first, closed_mouth)
     box: tuple[int, int, int, int]  # x, y, w, h of the mask's tight box
     outer: np.ndarray  # (K, 2) float32 x, y of the outer lip contour in order; empty for a close-up
-    inner: np.ndarray  # (L, 2) float32 the inner contour; empty for a close-up
+    inner: np.ndarray  # (L, 2) float32 the inner contour (closed on a closed mouth); empty for a close-up
     how: str  # "face" or "close-up"
     faces: int  # faces found (detections the face mesh confirms)
     score: float  # the mesh's face probability, or the close-up test's score
