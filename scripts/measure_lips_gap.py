@@ -24,15 +24,8 @@ from PIL import Image, ImageDraw
 from blender_addon.shipped import photo_reader
 from vto_core.colour import ciede2000, srgb_to_lab
 from vto_core.imageio import read_image
-from vto_core.photo.face_regions import region_polygons
+from vto_core.photo.face_regions import region_mask, region_polygons
 from vto_core.products import LIPS
-
-
-def polygon_mask(shape: tuple[int, ...], polygon: np.ndarray) -> np.ndarray:
-    """(H, W) bool inside the (K, 2) x, y polygon."""
-    image = Image.new("L", (shape[1], shape[0]))
-    ImageDraw.Draw(image).polygon([tuple(map(float, p)) for p in polygon], fill=1)
-    return np.asarray(image) > 0
 
 
 def drawn(photo: np.ndarray, worn: list[np.ndarray], outer: np.ndarray, inner: np.ndarray,
@@ -71,7 +64,7 @@ def main(argv: list[str] | None = None) -> None:
             continue
         photo = read_image(face)[0][..., :3]
         outer_line, inner_line = region_polygons(photo_reader().face_of(photo).landmarks, LIPS)  # the mesh's own
-        outer, inner = polygon_mask(photo.shape, outer_line), polygon_mask(photo.shape, inner_line)
+        outer, inner = (region_mask([line], *photo.shape[:2])[0] > 0.5 for line in (outer_line, inner_line))
         lab = srgb_to_lab(np.clip(photo, 0.0, 1.0))
         share = float(inner.sum() / outer.sum())
         like = float(ciede2000(np.median(lab[inner], 0), np.median(lab[outer & ~inner], 0))) if inner.any() else np.nan

@@ -37,19 +37,26 @@ def region_polygons(landmarks: np.ndarray, region: FaceRegion) -> list[np.ndarra
     return [landmarks[list(loop)] for loop in region.loops]
 
 
+def bounds_in(polygon: np.ndarray, height: int, width: int) -> tuple[int, int, int, int]:
+    """x, y, w, h of the whole pixels that the (K, 2) polygon's bounds cover in a height x width image (w or h 0
+    where they cover none)."""
+    x0, y0 = (max(0, int(math.floor(v))) for v in polygon.min(axis=0))
+    x1, y1 = min(width, int(math.ceil(polygon[:, 0].max()))), min(height, int(math.ceil(polygon[:, 1].max())))
+    return x0, y0, max(0, x1 - x0), max(0, y1 - y0)
+
+
 def region_mask(polygons: list[np.ndarray], height: int, width: int) -> tuple[np.ndarray, tuple[int, int, int, int]]:
     """(height, width) float32 0/1 inside the first polygon (K, 2) and outside the others (the holes), and its tight
     box (x, y, w, h; (0, 0, 0, 0) when empty). Only the first polygon's box is rasterised."""
     outer = np.asarray(polygons[0])
     mask = np.zeros((height, width), np.float32)
-    x0, y0 = (max(0, int(math.floor(v))) for v in outer.min(axis=0))
-    x1, y1 = min(width, int(math.ceil(outer[:, 0].max()))), min(height, int(math.ceil(outer[:, 1].max())))
-    if x1 <= x0 or y1 <= y0:
+    x0, y0, w, h = bounds_in(outer, height, width)
+    if not (w and h):
         return mask, (0, 0, 0, 0)
-    inside = polygon_mask(outer, x0, y0, x1 - x0, y1 - y0)
+    inside = polygon_mask(outer, x0, y0, w, h)
     for hole in polygons[1:]:
-        inside &= ~polygon_mask(np.asarray(hole), x0, y0, x1 - x0, y1 - y0)
-    mask[y0:y1, x0:x1] = inside
+        inside &= ~polygon_mask(np.asarray(hole), x0, y0, w, h)
+    mask[y0:y0 + h, x0:x0 + w] = inside
     x, y, w, h = tight_box(inside)
     return mask, (x + x0, y + y0, w, h) if w else (0, 0, 0, 0)
 

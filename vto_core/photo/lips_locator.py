@@ -18,7 +18,7 @@ from ..colour import srgb_to_lab
 from ..errors import VtoError
 from ..products import LIPS
 from .face_reader import FaceRead, FaceReader, as_rgb, cached_reader, polygon_mask, reduce
-from .face_regions import region_mask, region_polygons
+from .face_regions import bounds_in, region_mask, region_polygons
 
 LIP_OUTER, LIP_INNER = (list(loop) for loop in LIPS.loops)  # the face mesh's lip loops (vto_core.products.LIPS)
 # The inner loop's points facing each other across the mouth: LIP_INNER[i] below, LIP_INNER[20 - i] above (0 and 10
@@ -27,7 +27,7 @@ FACING = [(i, len(LIP_INNER) - i) for i in range(1, len(LIP_INNER) // 2)]
 # A mouth is open where its inner contour holds teeth (a share of its pixels TEETH_LIFT L* above the lips' median) or
 # a dark opening (CAVITY_DROP below). On the London Set and the NASA portraits (out of 111 faces), closed mouths hold
 # no pixel so bright (0.00-0.01 of them) and smiles with teeth 0.05-0.67; a closed mouth whose inner contour is not
-# closed left a band through the lips bare in the try-on (3-25 % of the lips on the skin-tone benchmark's faces).
+# closed left a band through the lips bare in the try-on (1-25 % of the lips on the skin-tone benchmark's faces).
 TEETH_LIFT, TEETH_SHARE = 15.0, 0.03
 CAVITY_DROP, CAVITY_SHARE = 25.0, 0.3
 
@@ -193,17 +193,14 @@ class LipsLocator:
 def mouth_closed(image: np.ndarray, outer: np.ndarray, inner: np.ndarray) -> bool:
     """Whether the mouth inside the inner lip contour (L, 2) is closed: no teeth and no dark opening there, against
     the lips between it and the outer contour (K, 2), in the (H, W, 3) display image. True where it holds no pixel."""
-    x0, y0 = (max(0, int(math.floor(v))) for v in outer.min(axis=0))
-    x1 = min(image.shape[1], int(math.ceil(outer[:, 0].max())))
-    y1 = min(image.shape[0], int(math.ceil(outer[:, 1].max())))
-    if x1 <= x0 or y1 <= y0:
+    x0, y0, w, h = box = bounds_in(outer, *image.shape[:2])
+    if not (w and h):
         return True
-    box = (x0, y0, x1 - x0, y1 - y0)
     opening = polygon_mask(inner, *box)
     lips = polygon_mask(outer, *box) & ~opening
     if not opening.any() or not lips.any():
         return True
-    lightness = srgb_to_lab(np.clip(image[y0:y1, x0:x1], 0.0, 1.0))[..., 0]
+    lightness = srgb_to_lab(np.clip(image[y0:y0 + h, x0:x0 + w], 0.0, 1.0))[..., 0]
     middle = float(np.median(lightness[lips]))
     inside = lightness[opening]
     return bool(np.mean(inside > middle + TEETH_LIFT) < TEETH_SHARE and np.mean(inside < middle - CAVITY_DROP)

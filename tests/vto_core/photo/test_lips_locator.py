@@ -193,7 +193,7 @@ def test_the_face_lips_and_hair_modules_import_nothing_blender_lacks():
 
 
 def test_a_closed_mouths_lips_are_whole(locator):
-    # London Set 070 (neutral, mouth closed): the face mesh leaves a band between its inner contours (12 % of the
+    # London Set 070 (neutral, mouth closed): the face mesh leaves a band between its inner contours (10 % of the
     # lips); the locator closes it, so the mask and the try-on's mesh hold the whole lips.
     from vto_core.imageio import read_image
 
