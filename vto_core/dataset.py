@@ -158,8 +158,14 @@ class SampleWriter:
         (self.tmp / "params.json").write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
 
     def commit(self) -> None:
-        """Rename the folder into place (atomic on one filesystem)."""
-        os.replace(self.tmp, self.final)
+        """Rename the folder into place (atomic on one filesystem). Where another process (an overlapping shard)
+        committed the same sample first, its folder is kept: a sample is a pure function of (seed, index)."""
+        try:
+            os.replace(self.tmp, self.final)
+        except OSError:
+            if not self.final.is_dir():
+                raise
+            self.abort()
 
     def abort(self) -> None:
         """Drop what was written."""
