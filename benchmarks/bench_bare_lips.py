@@ -6,7 +6,8 @@ wear no lipstick (data/faces and the London Set), and its error on the faces no 
 Each face is framed as the try-on frames it (64 px, blender_addon.renderers.tryon.photo_lips); the skin is
 vto_core.appearance.skin_colour's in the light's own white (the photo's light colour divided out, as Better does), the
 lips their mean linear colour. Beside the module's model: the luminance-only model it replaced (fitted on data/faces
-alone), refitted here. Writes benchmarks/results/bare_lips.md.
+alone), refitted here, and the module without its dark-skin knee (DARK_SLOPE 0); each skin group's median L* bias.
+Writes benchmarks/results/bare_lips.md.
 """
 
 from __future__ import annotations
@@ -59,6 +60,27 @@ def luminance_only(train: list):
     return lambda skin: skin * np.exp(fit[:, 0] * lightness(skin) + fit[:, 1])
 
 
+def skin_group(entry: dict) -> str:
+    """The London Set's ethnicity, or data/faces' skin tone."""
+    return entry.get("ethnicity") or f"data/faces {entry.get('skin')}"
+
+
+def without_knee(skin: np.ndarray) -> np.ndarray:
+    """The module's bare lips with DARK_SLOPE 0 (the model before the knee)."""
+    from vto_core.photo import bare_lips
+
+    return bare_lips.bare_lips(skin) * np.exp(-bare_lips.DARK_SLOPE * min(
+        bare_lips.lightness(skin) - np.log(bare_lips.DARK_KNEE), 0.0))
+
+
+def lightness_bias(model, group: list) -> float:
+    """Median L* of the predicted bare lips minus the lips' over `group`'s rows."""
+    from vto_core.colour import linear_to_srgb, srgb_to_lab
+
+    return float(np.median([srgb_to_lab(linear_to_srgb(model(skin)))[0] - srgb_to_lab(linear_to_srgb(lips))[0]
+                            for _, _, skin, lips in group]))
+
+
 def main() -> None:
     from vto_core.colour import linear_to_srgb
     from vto_core.photo import bare_lips
@@ -66,7 +88,8 @@ def main() -> None:
     rows = measured()
     train = [r for r in rows if r[1]["split"] == "train"]
     design = np.array([bare_lips.features(skin) for _, _, skin, _ in train])
-    held = np.array([bare_lips.RATIO_SLOPE * bare_lips.lightness(skin) for _, _, skin, _ in train])  # the slope kept
+    held = np.array([np.log(bare_lips.lips_ratio(skin)) - bare_lips.features(skin) @ bare_lips.COEFFICIENTS
+                     for _, _, skin, _ in train])  # the luminance slopes kept
     logs = np.log([lips / skin for _, _, skin, lips in train]) - held
     refit = np.linalg.lstsq(design, logs, rcond=None)[0]  # (3, 3)
     before = luminance_only(train)
@@ -82,6 +105,15 @@ def main() -> None:
             result.append([f"{name}, {label}", len(group), f"{np.median(now):.2f}", f"{np.max(now):.2f}",
                            f"{np.median(errors(before)):.2f}", f"{np.median(errors(lambda s: s)):.2f}"])
 
+    by_group = []
+    for split in ("train", "other"):
+        rows_split = [r for r in rows if (r[1]["split"] == "train") == (split == "train")]
+        for group in sorted({skin_group(r[1]) for r in rows_split}):
+            members = [r for r in rows_split if skin_group(r[1]) == group]
+            by_group.append(f"| {'train' if split == 'train' else 'held out and evaluation'} | {group} | "
+                            f"{len(members)} | {lightness_bias(bare_lips.bare_lips, members):+.1f} | "
+                            f"{lightness_bias(without_knee, members):+.1f} |")
+
     def listed(matrix) -> str:
         return "; ".join(", ".join(f"{v:.3f}" for v in row) for row in matrix)
 
@@ -91,7 +123,10 @@ def main() -> None:
         f"(module: {listed(bare_lips.COEFFICIENTS)}).",
         "", "Error: CIEDE2000 between the bare lips predicted from the skin and the lips' mean colour. 'luminance "
         "only': the model before (log r linear in the skin's log luminance, fitted on data/faces alone); 'skin as "
-        "lips': the skin's own colour, what no model gives.",
+        "lips': the skin's own colour, what no model gives.", "",
+        "Each skin group: the median L* bias of the predicted bare lips (a negative bias guesses them darker than "
+        "they are), with the dark-skin knee and without it.", "",
+        "| split | group | count | L* bias | without the knee |", "|---|---|---|---|---|", *by_group,
     ])
     write_table("bare_lips", "The bare lips from the skin",
                 ["faces", "count", "median CIEDE2000", "largest", "luminance only, median", "skin as lips, median"],

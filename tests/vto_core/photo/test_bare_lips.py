@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 
-from vto_core.photo.bare_lips import CHROMA_RANGE, COEFFICIENTS, RATIO_SLOPE, bare_lips, features, lips_ratio
+from vto_core.colour import luminance
+from vto_core.photo.bare_lips import (CHROMA_RANGE, COEFFICIENTS, DARK_KNEE, DARK_SLOPE, RATIO_SLOPE, bare_lips,
+                                      features, lips_ratio)
 
 LIGHT_SKIN = np.array([0.42, 0.20, 0.13])  # linear: a typical light training face (data/faces)
 DARK_SKIN = np.array([0.21, 0.086, 0.033])
@@ -20,6 +22,19 @@ def test_bare_lips_are_redder_than_the_skin_they_sit_in():
 
 def test_darker_skins_have_lips_nearer_their_own_colour():
     assert (lips_ratio(DARK_SKIN) > lips_ratio(LIGHT_SKIN)).all()
+
+
+def test_a_black_skins_lips_are_lighter_than_the_skin():
+    # a black training face of the London Set: skin L* 25.5, its lips L* 32.5 (guessed 4-5 L* too dark before the knee)
+    skin = np.array([0.064, 0.041, 0.035])
+    assert luminance(bare_lips(skin)) > 1.2 * luminance(skin)
+
+
+def test_below_the_knee_the_ratio_climbs_by_both_slopes():
+    at_knee = LIGHT_SKIN * DARK_KNEE / LUMINANCE
+    np.testing.assert_allclose(lips_ratio(at_knee * 1.5) / lips_ratio(at_knee), 1.5 ** RATIO_SLOPE, rtol=1e-6)
+    np.testing.assert_allclose(lips_ratio(at_knee / 2.0) / lips_ratio(at_knee), 0.5 ** (RATIO_SLOPE + DARK_SLOPE),
+                               rtol=1e-6)
 
 
 def test_a_less_red_skin_has_lips_darker_and_redder_against_it():
