@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.bench_real_photos import delta_e
-from benchmarks.common import write_table
+from benchmarks.common import table, write_table
 
 ROOT = Path(__file__).resolve().parent.parent
 SETS = {"data/faces": ROOT / "data" / "faces" / "faces.json",
@@ -69,8 +69,7 @@ def without_knee(skin: np.ndarray) -> np.ndarray:
     """The module's bare lips with DARK_SLOPE 0 (the model before the knee)."""
     from vto_core.photo import bare_lips
 
-    return bare_lips.bare_lips(skin) * np.exp(-bare_lips.DARK_SLOPE * min(
-        bare_lips.lightness(skin) - np.log(bare_lips.DARK_KNEE), 0.0))
+    return bare_lips.bare_lips(skin) * np.exp(-bare_lips.DARK_SLOPE * bare_lips.below_knee(skin))
 
 
 def lightness_bias(model, group: list) -> float:
@@ -110,9 +109,9 @@ def main() -> None:
         rows_split = [r for r in rows if (r[1]["split"] == "train") == (split == "train")]
         for group in sorted({skin_group(r[1]) for r in rows_split}):
             members = [r for r in rows_split if skin_group(r[1]) == group]
-            by_group.append(f"| {'train' if split == 'train' else 'held out and evaluation'} | {group} | "
-                            f"{len(members)} | {lightness_bias(bare_lips.bare_lips, members):+.1f} | "
-                            f"{lightness_bias(without_knee, members):+.1f} |")
+            by_group.append(["train" if split == "train" else "held out and evaluation", group, len(members),
+                             f"{lightness_bias(bare_lips.bare_lips, members):+.1f}",
+                             f"{lightness_bias(without_knee, members):+.1f}"])
 
     def listed(matrix) -> str:
         return "; ".join(", ".join(f"{v:.3f}" for v in row) for row in matrix)
@@ -126,7 +125,7 @@ def main() -> None:
         "lips': the skin's own colour, what no model gives.", "",
         "Each skin group: the median L* bias of the predicted bare lips (a negative bias guesses them darker than "
         "they are), with the dark-skin knee and without it.", "",
-        "| split | group | count | L* bias | without the knee |", "|---|---|---|---|---|", *by_group,
+        table(["split", "group", "count", "L* bias", "without the knee"], by_group),
     ])
     write_table("bare_lips", "The bare lips from the skin",
                 ["faces", "count", "median CIEDE2000", "largest", "luminance only, median", "skin as lips, median"],

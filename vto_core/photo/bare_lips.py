@@ -55,10 +55,14 @@ def lightness(skin: np.ndarray) -> float:
     return min(np.log(max(float(luminance(skin)), LUMINANCE_FLOOR)), 0.0)
 
 
+def below_knee(skin: np.ndarray) -> float:
+    """How far the skin's log luminance lies below DARK_KNEE's (at most 0; 0 for a skin above the knee)."""
+    return min(lightness(skin) - np.log(DARK_KNEE), 0.0)
+
+
 def lips_ratio(skin: np.ndarray) -> np.ndarray:
     """The bare lips over the skin (3,), per channel, for a skin's linear RGB (3,) in the light's own white."""
-    log_y = lightness(skin)
-    return np.exp(RATIO_SLOPE * log_y + DARK_SLOPE * min(log_y - np.log(DARK_KNEE), 0.0) + features(skin) @ COEFFICIENTS)
+    return np.exp(RATIO_SLOPE * lightness(skin) + DARK_SLOPE * below_knee(skin) + features(skin) @ COEFFICIENTS)
 
 
 def bare_lips(skin: np.ndarray) -> np.ndarray:
