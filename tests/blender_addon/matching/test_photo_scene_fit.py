@@ -10,8 +10,8 @@ pytestmark = pytest.mark.blender
 pytest.importorskip("bpy")
 
 from blender_addon.matching.photo_fit import iter_fit_photo  # noqa: E402
-from blender_addon.matching.photo_scene_fit import (SCENE_FIT, iter_fit_photo_scene, lips_core,  # noqa: E402
-                                                    scene_target, under_layer)
+from blender_addon.matching.photo_scene_fit import (ROBUST_SCALE, SCENE_FIT, iter_fit_photo_scene,  # noqa: E402
+                                                    lips_core, robust, scene_target, under_layer)
 from blender_addon.matching.refine import drain  # noqa: E402
 from blender_addon.renderers.tryon import find_lips, tryon_lipstick  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
@@ -68,6 +68,36 @@ def test_better_keeps_a_dark_opaque_product_the_photo_shows():
     fitted = drain(iter_fit_photo_scene(SPEC, target, truth, "BETTER", samples=8))
     assert fitted["opacity"] > 0.95
     assert float(np.mean([fitted[k] for k in COLOUR])) < float(np.mean([truth[k] for k in COLOUR])) + 8
+
+
+def test_better_keeps_a_dark_product_opaque_where_the_lips_found_reach_past_the_paint():
+    """Black Cherry (opaque, near black) tried on a training face whose lips found on the made-up photo reach a pixel
+    past the paint: fitted from the truth, Better stays opaque and as dark. Scored by squares, the lighter pixels past
+    the paint pulled it to a thinner, lighter coat (opacity 0.87, green 25 for 8); the Cauchy loss (ROBUST_SCALE)
+    lets them cost little."""
+    truth = {k: SPEC.check_values(load_presets("lipstick")["Black Cherry"])[k] for k in SPEC.modelled}
+    face = FACE.parent / "london" / "london_114_neutral.jpg"  # a training person
+    photo = tryon_lipstick(read_image(face)[0][..., :3], SPEC.full_values(truth), samples=8)
+    target = scene_target(photo, (LIPS, find_lips(photo)), SCENE_FIT["BETTER"][0])
+    fitted = drain(iter_fit_photo_scene(SPEC, target, truth, "BETTER", samples=8))
+    assert fitted["opacity"] > 0.95 and colour_miss(fitted, truth) < 6
+
+
+def test_the_robust_difference_keeps_small_differences_and_shrinks_those_far_beyond_the_rest():
+    difference = np.zeros((3, 3, 3))
+    difference[0, 0] = [0.001, 0.0, 0.0]
+    difference[0, 1] = [0.0, 0.3, 0.4]  # length 0.5, the other counted pixels' median ROBUST_SCALE or less
+    counted = np.ones((3, 3), bool)
+    robust_difference = robust(difference, counted)
+    np.testing.assert_allclose(robust_difference[0, 0], difference[0, 0], rtol=1e-2)
+    length = np.linalg.norm(robust_difference[0, 1])
+    np.testing.assert_allclose(length, ROBUST_SCALE * np.sqrt(np.log1p((0.5 / ROBUST_SCALE) ** 2)), rtol=1e-9)
+    np.testing.assert_allclose(robust_difference[0, 1] / length, [0.0, 0.6, 0.8], rtol=1e-9)  # its direction kept
+    assert (robust_difference[1] == 0).all()
+    far = np.full((3, 3, 3), 0.1)  # off everywhere alike: the scale is their length, each costs log(2) of its square
+    np.testing.assert_allclose(np.linalg.norm(robust(far, counted), axis=-1), np.sqrt(0.03 * np.log(2)), rtol=1e-9)
+    assert np.isfinite(robust(np.full((3, 3, 3), 1e6), counted)).all()
+    assert np.isfinite(robust(far, np.zeros((3, 3), bool))).all()
 
 
 def test_lips_without_a_face_or_skin_are_fitted_on_the_default_scene_instead(made_up):
