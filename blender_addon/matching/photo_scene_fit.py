@@ -176,7 +176,7 @@ def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], qu
             ratio = ratio + np.expm1(level) * ((1.0 - opacity) * region + opacity * share)
             prior = np.append(prior, SCENE_PRIOR * SIGMA * level / layer.bare_spread)
         worn = np.clip(linear_to_srgb(composite(under, ratio, soft, values["opacity"])), 0.0, 1.0)  # as a photo is
-        return np.concatenate([(robust(worn - target.frame, trust > 0) * weights).ravel(), prior])
+        return np.concatenate([(robust(worn - target.frame, core) * weights).ravel(), prior])
 
     begin = unit if share is None else np.append(unit, 0.5)  # the level starts at the guess
     wraps = wraps if share is None else np.append(wraps, False)
