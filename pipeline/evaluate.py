@@ -347,7 +347,8 @@ def _mean_std(values: list) -> list[float] | None:
 
 def summarise(spec: RendererSpec, rows: list[dict], methods: list[str]) -> dict:
     """Per method: PSNR, SSIM, perceptual [mean, std], PSNR median, ms per reference, per-parameter errors (mean of
-    the unit error, median of the raw one), PSNR gain over the mean preset, and PSNR [mean, looks] per bucket."""
+    the unit error, median of the raw one), PSNR gain over the mean preset with its standard error, and PSNR [mean,
+    looks] per bucket."""
     summary = {}
     baseline = np.array([row["methods"]["mean preset"]["psnr"] for row in rows])
     for method in methods:
@@ -360,6 +361,7 @@ def summarise(spec: RendererSpec, rows: list[dict], methods: list[str]) -> dict:
         summary[method] = {
             "psnr": _mean_std(psnrs.tolist()), "psnr_median": float(np.median(psnrs)),
             "gain_over_mean_preset_db": float(np.mean(psnrs - baseline)),
+            "gain_standard_error_db": standard_error(psnrs - baseline),
             "ssim": _mean_std([r["ssim"] for r in results]),
             "perceptual": _mean_std([r["perceptual"] for r in results]),
             "ms_per_reference": float(np.mean([r["ms"] for r in results])),
@@ -369,6 +371,14 @@ def summarise(spec: RendererSpec, rows: list[dict], methods: list[str]) -> dict:
             "colour_error_median": colour_errors(spec, rows, method),
         }
     return summary
+
+
+def standard_error(values: np.ndarray) -> float | None:
+    """The standard error of the mean of `values` (n,), over looks drawn at random: their sample standard deviation
+    over sqrt(n); None for fewer than two. A gain is paired with the mean preset look by look, so the spread of the
+    looks' difficulty cancels and only that of the differences counts."""
+    values = np.asarray(values, np.float64)
+    return float(np.std(values, ddof=1) / np.sqrt(values.size)) if values.size > 1 else None
 
 
 def colour_errors(spec: RendererSpec, rows: list[dict], method: str) -> dict | None:
@@ -390,6 +400,11 @@ def _pm(pair: list[float] | None, digits: int) -> str:
     return f"{pair[0]:.{digits}f} ± {pair[1]:.{digits}f}" if pair else "n/a"
 
 
+def _gain(summary: dict) -> str:
+    error = summary.get("gain_standard_error_db")
+    return f"{summary['gain_over_mean_preset_db']:+.2f}" + ("" if error is None else f" ± {error:.2f}")
+
+
 def seed_words(offset: int) -> str:
     """How results.md names the Cycles seed of the renders methods make on source A."""
     return ("the reference's Cycles seed (its noise shared)" if offset == 0 else
@@ -403,10 +418,10 @@ def markdown(spec: RendererSpec, summary: dict, settings: EvalSettings, model: s
              f"{settings.n} sampled looks (eval seed {settings.seed}), {settings.res} px, {settings.samples} spp; each "
              "estimated from its render on source A and compared on source B with the truth's Cycles seed "
              f"(paper 7.2.1); what methods render on A uses {seed_words(settings.search_seed_offset)}. "
-             f"{perceptual_note}.", "",
+             f"{perceptual_note}. The gain over the mean preset is given ± its standard error over the looks.", "",
              "| method | PSNR dB (mean ± std) | PSNR median | gain over mean preset dB | SSIM (mean ± std) "
              "| perceptual | ms per reference |", "|---|---|---|---|---|---|---|"]
-    lines += [f"| {m} | {_pm(s['psnr'], 2)} | {s['psnr_median']:.2f} | {s['gain_over_mean_preset_db']:+.2f} "
+    lines += [f"| {m} | {_pm(s['psnr'], 2)} | {s['psnr_median']:.2f} | {_gain(s)} "
               f"| {_pm(s['ssim'], 4)} | {_pm(s['perceptual'], 4)} | {s['ms_per_reference']:.1f} |"
               for m, s in summary.items()]
     header = "| parameter | " + " | ".join(methods) + " |"

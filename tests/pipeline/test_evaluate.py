@@ -14,7 +14,8 @@ pytest.importorskip("torch")
 
 from pipeline.cli import cmd_eval  # noqa: E402
 from training.config import EncoderConfig, ImitatorConfig, resolve_config  # noqa: E402
-from pipeline.evaluate import buckets, colour_errors, is_dark, parameter_errors, raw_errors  # noqa: E402
+from pipeline.evaluate import (buckets, colour_errors, is_dark, parameter_errors, raw_errors,  # noqa: E402
+                               standard_error, summarise)
 from training.export import export_encoder  # noqa: E402
 from training.train_encoder import train_encoder  # noqa: E402
 from training.train_imitator import train_imitator  # noqa: E402
@@ -131,6 +132,8 @@ def test_tables_plots_and_contact_sheet_are_written(evaluated):
         assert f"| {method} |" in text
     assert "PSNR by bucket" in text and "| opacity |" in text and "Median absolute parameter error" in text
     summary = json.loads((out / "results.json").read_text())["summary"]
+    encoder = summary["encoder"]
+    assert f"| {encoder['gain_over_mean_preset_db']:+.2f} ± {encoder['gain_standard_error_db']:.2f} |" in text
     colour = summary["encoder"]["colour_error_median"]
     assert colour["all"] == pytest.approx(colour_errors(SPEC, json.loads((out / "results.json").read_text())["looks"],
                                                         "encoder")["all"])
@@ -178,6 +181,26 @@ def test_colour_errors_pool_the_channels_over_all_and_over_opaque_looks():
     assert colour_errors(SPEC, rows[2:], "m") == {"all": 40.0, "opaque": None, "opaque_looks": 0}
     assert colour_errors(get_spec("lipstick", "opacity,red,green"), rows, "m") is None
     assert colour_errors(get_spec("hair"), rows, "m") is None
+
+
+def test_the_gain_over_the_mean_preset_carries_the_standard_error_of_its_paired_differences():
+    def look(mean_preset, encoder):
+        def result(value):
+            zeros = dict.fromkeys(SPEC.modelled, 0.0)
+            return {"psnr": value, "ssim": 0.9, "perceptual": None, "ms": 1.0, "raw_error": zeros, "param_error": zeros}
+        return {"buckets": ["other"], "truth": {"opacity": 1.0}, "methods": {"mean preset": result(mean_preset),
+                                                                             "encoder": result(encoder)}}
+
+    # differences 6, 8, 10, 12: mean 9, sample std sqrt(20/3), standard error sqrt(20/3) / 2
+    rows = [look(30.0, 36.0), look(20.0, 28.0), look(25.0, 35.0), look(40.0, 52.0)]
+    summary = summarise(SPEC, rows, ["mean preset", "encoder"])
+    assert summary["encoder"]["gain_over_mean_preset_db"] == pytest.approx(9.0)
+    assert summary["encoder"]["gain_standard_error_db"] == pytest.approx(np.sqrt(20 / 3) / 2)
+    assert summary["mean preset"]["gain_standard_error_db"] == 0.0
+    # the looks' own difficulty (PSNR 20-40 here) does not enter: only the spread of the differences
+    steady = summarise(SPEC, [look(30.0, 39.0), look(20.0, 29.0)], ["encoder"])
+    assert steady["encoder"]["gain_standard_error_db"] == 0.0
+    assert standard_error(np.array([5.0])) is None and standard_error(np.array([1.0, 3.0])) == pytest.approx(1.0)
 
 
 def test_hue_errors_wrap_and_buckets_name_dark_glossy_and_extreme_looks():
