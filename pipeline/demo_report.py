@@ -7,6 +7,8 @@ import html
 import json
 from pathlib import Path
 
+from .evaluate import gain_text
+
 CELL_PX = 112  # displayed width of one contact-sheet cell
 
 
@@ -20,9 +22,9 @@ def _pm(pair, digits: int) -> str:
 
 
 def metrics_table(summary: dict) -> str:
-    """Per method: transfer PSNR, gain over the mean preset, SSIM, ms per reference."""
+    """Per method: transfer PSNR, gain over the mean preset (± its standard error), SSIM, ms per reference."""
     rows = "".join(
-        f"<tr><td>{html.escape(name)}</td><td>{_pm(s['psnr'], 2)}</td><td>{s['gain_over_mean_preset_db']:+.2f}</td>"
+        f"<tr><td>{html.escape(name)}</td><td>{_pm(s['psnr'], 2)}</td><td>{gain_text(s)}</td>"
         f"<td>{_pm(s['ssim'], 4)}</td><td>{s['ms_per_reference']:.1f}</td></tr>" for name, s in summary.items())
     return ('<table id="metrics"><tr><th>method</th><th>transfer PSNR dB</th><th>gain over mean preset dB</th>'
             f"<th>SSIM</th><th>ms per reference</th></tr>{rows}</table>")

@@ -400,7 +400,8 @@ def _pm(pair: list[float] | None, digits: int) -> str:
     return f"{pair[0]:.{digits}f} ± {pair[1]:.{digits}f}" if pair else "n/a"
 
 
-def _gain(summary: dict) -> str:
+def gain_text(summary: dict) -> str:
+    """A method's gain over the mean preset, dB, and its standard error where there is one: '+7.49 ± 1.21'."""
     error = summary.get("gain_standard_error_db")
     return f"{summary['gain_over_mean_preset_db']:+.2f}" + ("" if error is None else f" ± {error:.2f}")
 
@@ -421,7 +422,7 @@ def markdown(spec: RendererSpec, summary: dict, settings: EvalSettings, model: s
              f"{perceptual_note}. The gain over the mean preset is given ± its standard error over the looks.", "",
              "| method | PSNR dB (mean ± std) | PSNR median | gain over mean preset dB | SSIM (mean ± std) "
              "| perceptual | ms per reference |", "|---|---|---|---|---|---|---|"]
-    lines += [f"| {m} | {_pm(s['psnr'], 2)} | {s['psnr_median']:.2f} | {_gain(s)} "
+    lines += [f"| {m} | {_pm(s['psnr'], 2)} | {s['psnr_median']:.2f} | {gain_text(s)} "
               f"| {_pm(s['ssim'], 4)} | {_pm(s['perceptual'], 4)} | {s['ms_per_reference']:.1f} |"
               for m, s in summary.items()]
     header = "| parameter | " + " | ".join(methods) + " |"

@@ -59,6 +59,9 @@ def test_smoke_demo_makes_an_encoder_and_a_self_contained_report(smoke):
     results = json.loads((out / "eval" / "results.json").read_text())
     assert psnr["encoder"] == pytest.approx(results["summary"]["encoder"]["psnr"][0], abs=0.01)
     assert psnr["encoder"] > psnr["mean preset"] + 1.0, psnr  # measured: +2.5 dB on the 12 held-out looks
+    encoder = results["summary"]["encoder"]
+    assert (f"<td>{encoder['gain_over_mean_preset_db']:+.2f} ± {encoder['gain_standard_error_db']:.2f}</td>"
+            in page)  # the gain and its standard error over the looks
     assert 'id="timings"' in page and page.count(">this run</td>") == 6
 
 
