@@ -7,7 +7,7 @@ import html
 import json
 from pathlib import Path
 
-from .evaluate import gain_text
+from .evaluate import gain_text, mean_std_text
 
 CELL_PX = 112  # displayed width of one contact-sheet cell
 
@@ -17,15 +17,12 @@ def data_uri(path: Path) -> str:
     return "data:image/png;base64," + base64.b64encode(Path(path).read_bytes()).decode("ascii")
 
 
-def _pm(pair, digits: int) -> str:
-    return f"{pair[0]:.{digits}f} ± {pair[1]:.{digits}f}" if pair else "n/a"
-
-
 def metrics_table(summary: dict) -> str:
     """Per method: transfer PSNR, gain over the mean preset (± its standard error), SSIM, ms per reference."""
     rows = "".join(
-        f"<tr><td>{html.escape(name)}</td><td>{_pm(s['psnr'], 2)}</td><td>{gain_text(s)}</td>"
-        f"<td>{_pm(s['ssim'], 4)}</td><td>{s['ms_per_reference']:.1f}</td></tr>" for name, s in summary.items())
+        f"<tr><td>{html.escape(name)}</td><td>{mean_std_text(s['psnr'], 2)}</td><td>{gain_text(s)}</td>"
+        f"<td>{mean_std_text(s['ssim'], 4)}</td><td>{s['ms_per_reference']:.1f}</td></tr>"
+        for name, s in summary.items())
     return ('<table id="metrics"><tr><th>method</th><th>transfer PSNR dB</th><th>gain over mean preset dB</th>'
             f"<th>SSIM</th><th>ms per reference</th></tr>{rows}</table>")
 

@@ -396,7 +396,8 @@ def colour_errors(spec: RendererSpec, rows: list[dict], method: str) -> dict | N
     return {"all": pooled(rows), "opaque": pooled(opaque), "opaque_looks": len(opaque)}
 
 
-def _pm(pair: list[float] | None, digits: int) -> str:
+def mean_std_text(pair: list[float] | None, digits: int) -> str:
+    """[mean, std] as 'mean ± std' to `digits` decimals; 'n/a' for None."""
     return f"{pair[0]:.{digits}f} ± {pair[1]:.{digits}f}" if pair else "n/a"
 
 
@@ -422,8 +423,8 @@ def markdown(spec: RendererSpec, summary: dict, settings: EvalSettings, model: s
              f"{perceptual_note}. The gain over the mean preset is given ± its standard error over the looks.", "",
              "| method | PSNR dB (mean ± std) | PSNR median | gain over mean preset dB | SSIM (mean ± std) "
              "| perceptual | ms per reference |", "|---|---|---|---|---|---|---|"]
-    lines += [f"| {m} | {_pm(s['psnr'], 2)} | {s['psnr_median']:.2f} | {gain_text(s)} "
-              f"| {_pm(s['ssim'], 4)} | {_pm(s['perceptual'], 4)} | {s['ms_per_reference']:.1f} |"
+    lines += [f"| {m} | {mean_std_text(s['psnr'], 2)} | {s['psnr_median']:.2f} | {gain_text(s)} "
+              f"| {mean_std_text(s['ssim'], 4)} | {mean_std_text(s['perceptual'], 4)} | {s['ms_per_reference']:.1f} |"
               for m, s in summary.items()]
     header = "| parameter | " + " | ".join(methods) + " |"
     rule = "|---|" + "---|" * len(methods)
