@@ -128,7 +128,7 @@ def run_demo(renderer: str, size_name: str, out: Path) -> Path:
     def dataset_args(folder: Path, n: int, seed: int, sensitivity: bool) -> list[str]:
         return [renderer, "--out", str(folder), "--n", str(n), "--seed", str(seed), "--res", str(size.res),
                 "--samples", str(size.samples), *(["--params", params] if params else []),
-                *(["--sensitivity"] if sensitivity else [])]
+                *(["--sensitivity"] if sensitivity else size.source_args(renderer))]
 
     def dataset(argv: list[str]):
         def work():

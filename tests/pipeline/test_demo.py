@@ -93,7 +93,7 @@ def test_the_hair_demo_makes_a_hair_encoder_that_beats_the_mean_preset(tmp_path)
     assert printed.getvalue().strip().splitlines()[-1] == str(tmp_path / "report" / "index.html")
     assert EncoderSession(tmp_path / "encoder.onnx").spec.renderer == "hair"
     psnr = metrics((tmp_path / "report" / "index.html").read_text())
-    assert psnr["encoder"] > psnr["mean preset"] + 1.0, psnr  # measured: +6.8 dB on the 12 held-out looks
+    assert psnr["encoder"] > psnr["mean preset"] + 1.0, psnr  # measured: +7.0 dB on the 12 held-out looks
 
 
 def test_stages_skip_same_settings_redo_changed_ones_and_resume_unfinished(tmp_path):
