@@ -9,7 +9,8 @@ and mattes. Each is tried on each face with the try-on renderer (16 spp), writte
 --compare encoder. The truth and every estimate are compared as products: their apparent colour on the default lips
 (sources 0 and 1, blender_addon.matching.photo_fit.apparent_colour), in CIELAB; so copying the photo's colour, or one
 answer for every photo, wins nothing. Reported per quality: the slope of the estimate's L* on the truth's, each
-product's median L* error and CIEDE2000, each group's median CIEDE2000 and L* bias. A picture
+product's median L* error and CIEDE2000, each group's median CIEDE2000 and L* bias, and each group's slopes both
+ways (scatter from a pull to the middle). A picture
 (benchmarks/results/skin_tones_sheet.png): one face per group, each product tried on beside its Fast estimate tried on.
 Beside it, a suspect measured where the truth is known without a face: the same products rendered on the default lips
 (sources 2-4, source hidden), read by each encoder at the render's exposure and +-0.3 stops (the face looks' camera
@@ -167,13 +168,17 @@ def summarise(rows: list[dict]) -> tuple[list[str], dict[str, dict]]:
         groups = {g: (float(np.median(error[[r["group"] == g for r in have]])),
                       float(np.median(bias[[r["group"] == g for r in have]])))
                   for g in GROUPS if any(r["group"] == g for r in have)}
+        in_group = {g: np.array([r["group"] == g for r in have]) for g in groups}
+        pulls = {g: (slope(truth[s, 0], found[s, 0]), slope(found[s, 0], truth[s, 0]))
+                 for g, s in {**in_group, "all": np.ones(len(have), bool)}.items() if s.sum() > 2}
         fast = np.array([r["estimates"]["fast"]["lab"] for r in have])  # Fast on the same looks: the dial's measure
         figures[method] = {"looks": len(have), "slope": slope(truth[:, 0], found[:, 0]),
                            "fast_same": (slope(truth[:, 0], fast[:, 0]),
                                          float(np.median([ciede2000(t, f) for t, f in zip(truth, fast)]))),
                            "groups_seen": sorted({r["group"] for r in have}),
                            "chroma_slope": slope(np.hypot(truth[:, 1], truth[:, 2]), np.hypot(found[:, 1], found[:, 2])),
-                           "median": float(np.median(error)), "products": products, "groups": groups}
+                           "median": float(np.median(error)), "products": products, "groups": groups,
+                           "pulls": pulls}
     return methods, figures
 
 
@@ -249,6 +254,13 @@ def report(methods: list[str], figures: dict, faces: int, argv: list[str], rende
              table(["group"] + methods, [[g] + [
                  "{:.1f} / {:+.1f}".format(*figures[m]["groups"][g]) if g in figures[m]["groups"] else "-"
                  for m in methods] for g in GROUPS]), "",
+             "Each group: the L* slope of the estimate on the truth / of the truth on the estimate, per method. "
+             "A reader that is right on average whatever it reads (the second slope 1) still has a first slope below "
+             "1, by its scatter alone (about the square of their correlation); a second slope above 1 is a pull to "
+             "the middle: the estimates' lightness spans too little.", "",
+             table(["group"] + methods, [[g] + [
+                 "{:.2f} / {:.2f}".format(*figures[m]["pulls"][g]) if g in figures[m]["pulls"] else "-"
+                 for m in methods] for g in (*GROUPS, "all")]), "",
              "![each product tried on (left) beside its Fast estimate tried on (right), one face per group]"
              "(skin_tones_sheet.png)", "",
              "## In the encoder's own domain: default renders, source hidden, under another exposure", "",
