@@ -129,10 +129,14 @@ def finished_indices(root: Path) -> set[int]:
     return {int(entry.name) for entry in os.scandir(folder) if entry.name.isdigit()}
 
 
-def remove_stale_temporaries(root: Path) -> int:
-    """Delete half-written sample folders left by a killed run; returns how many."""
+def remove_stale_temporaries(root: Path, indices=None) -> int:
+    """Delete the half-written folders a killed run left of samples `indices` (None: of every sample); returns how
+    many. A shard passes its own: another shard may be writing its samples beside it, in folders of their own."""
     folder = Path(root) / SAMPLES_DIR
     stale = [p for p in folder.glob(TMP_PREFIX + "*")] if folder.is_dir() else []
+    if indices is not None:
+        owned = {sample_name(i) for i in indices}
+        stale = [p for p in stale if p.name[len(TMP_PREFIX):].split("-")[0] in owned]
     for path in stale:
         shutil.rmtree(path, ignore_errors=True)
     return len(stale)

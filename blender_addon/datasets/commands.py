@@ -122,7 +122,7 @@ def cmd_dataset(argv: list[str]) -> int:
     if args.worker is not None:  # one of run_workers' processes: its share of the shard, then exit
         run_in_process(job, worker_indices(indices, parse_shard(args.worker)), args.limit, quiet=True)
         return 0
-    prepare_output(job)
+    prepare_output(job, indices)
     if args.workers == 1:
         made = run_in_process(job, indices, args.limit, args.quiet)
     else:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -262,18 +263,18 @@ class SampleRenderer:
         return len(images) + (source_image is not None and job.product.renders_source)
 
 
-def prepare_output(job: DatasetJob) -> None:
-    """Create DIR, check or write its manifest, drop half-written samples of killed runs."""
+def prepare_output(job: DatasetJob, indices=None) -> None:
+    """Create DIR, check or write its manifest, drop the half-written samples killed runs left of `indices` (None:
+    of all; a shard's own, since the other shards may be running)."""
     out = Path(job.out)
     try:
         (out / "samples").mkdir(parents=True, exist_ok=True)
-        probe = out / ".vto-write-probe"
-        probe.write_text("")
-        probe.unlink()
+        with tempfile.TemporaryFile(dir=out, prefix=".vto-write-probe-"):  # a name of its own: shards start at once
+            pass
     except OSError as exc:
         raise VtoError(f"cannot write to {out}: {exc.strerror}") from None
     write_manifest(out, job.manifest())
-    remove_stale_temporaries(out)
+    remove_stale_temporaries(out, indices)
 
 
 def progress_bar(samples: int, renders_per_sample: int, quiet: bool = False):

@@ -107,6 +107,18 @@ def test_kill_and_resume_yields_the_uninterrupted_files(tmp_path):
     assert tree_hashes(tmp_path / "clean") == tree_hashes(tmp_path / "killed")
 
 
+def test_a_shard_started_beside_a_running_one_leaves_its_samples_alone(tmp_path):
+    """Shards start at any time on one folder (a cluster's array, a killed shard run again): one starting clears only
+    its own half-written samples, and a write probe of another's in the folder does not stop it."""
+    out = tmp_path / "sharded"
+    make(out, 2, "--shard", "0/2")  # the folder as a first shard leaves it
+    (out / ".vto-write-probe").mkdir()  # another run's probe, made under the name every run once used
+    writing = out / "samples" / ".tmp-0000003-99999"  # shard 1/2 of 4 looks, writing sample 3 right now
+    writing.mkdir()
+    make(out, 4, "--shard", "0/2")
+    assert writing.is_dir()
+
+
 def test_killed_and_resumed_hair_dataset_equals_an_uninterrupted_one(tmp_path):
     n, tiny = 6, ["--res", "16", "--samples", "2", "--params", "hue,shine", "--seed", "5", "--quiet"]
     assert cmd_dataset(["hair", "--out", str(tmp_path / "clean"), "--n", str(n), *tiny]) == 0
