@@ -63,6 +63,24 @@ def split(reader: DatasetReader, val_fraction: float) -> tuple[list[int], list[i
     return list(range(count - held_out)), list(range(count - held_out, count))
 
 
+def held_out_folders(reader, val_positions: list[int]) -> list[dict]:
+    """Which folders the held-out tail takes looks from: [{"folder", "held_out", "of"}], last first. A folder held out
+    whole is never trained on: the tail of several folders comes from the last ones given, whole folders at a time
+    when the last is small (the session 66-70 runs that gave the darker faces' folder last never trained on it)."""
+    parts = getattr(reader, "parts", [reader])
+    starts = getattr(reader, "starts", [0, len(reader)])
+    first = min(val_positions, default=len(reader))
+    return [{"folder": str(part.root), "held_out": int(starts[i + 1] - max(first, starts[i])), "of": len(part)}
+            for i, part in reversed(list(enumerate(parts))) if starts[i + 1] > first]
+
+
+def held_out_text(held: list[dict]) -> str:
+    """One line for the log: 'held out for validation (not trained on): all 3000 of A, 600 of 3000 of B'."""
+    words = [f"all {h['of']} of {h['folder']}" if h["held_out"] == h["of"] else f"{h['held_out']} of {h['of']} of "
+             f"{h['folder']}" for h in held]
+    return "held out for validation (not trained on): " + (", ".join(words) if words else "none")
+
+
 class EpochSampler(torch.utils.data.Sampler):
     """This process's sample positions forever, epoch after epoch; each epoch a DistributedSampler shard.
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import sys
 
 import torch
 
@@ -12,7 +13,8 @@ from vto_core.products import get_product
 from vto_core.specs import RendererSpec
 
 from .config import EncoderConfig, config_dict, data_record, with_epochs
-from .data import RenderDataset, encoder_views, make_loader, per_process_batch, split, training_batches
+from .data import (RenderDataset, encoder_views, held_out_folders, held_out_text, make_loader, per_process_batch, split,
+                   training_batches)
 from .distributed import Processes, processes
 from .losses import (PerceptualDistance, colour_loss, graphics_loss, parameter_difference, parameter_weights,
                      weighted_total)
@@ -122,8 +124,10 @@ def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], 
         colour_net = onnx_colour_net(config.colour_imitator, reader.spec).to(device)
     run = RunFolder(out)
     if procs.is_main:
+        held = held_out_folders(reader, val_positions)
+        print(held_out_text(held), file=sys.stderr)
         run.save_config({**config_dict(config), "kind": "encoder", "data": data_record(data), "imitator": imitator_run,
-                         "spec": reader.spec.to_dict()})
+                         "spec": reader.spec.to_dict(), "held_out": held})
     procs.barrier()
     runtime = dataclasses.replace(config, device=device)  # this process's device (cuda:LOCAL_RANK under torchrun)
     torch.manual_seed(config.seed)

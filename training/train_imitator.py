@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import dataclasses
+import sys
 
 import torch
 
 from vto_core.dataset import DatasetReader, DatasetUnion, open_datasets
 
 from .config import ImitatorConfig, config_dict, data_record, with_epochs
-from .data import RenderDataset, make_loader, per_process_batch, split, training_batches
+from .data import RenderDataset, held_out_folders, held_out_text, make_loader, per_process_batch, split, training_batches
 from .distributed import Processes, processes
 from .losses import PerceptualDistance, critic_loss, generator_adversarial_loss, sensitivity_loss, weighted_total
 from .networks import Critic, Imitator
@@ -96,8 +97,10 @@ def _train_imitator(reader: DatasetReader | DatasetUnion, data: str | list[str],
     train_set = RenderDataset(reader, train_positions, need_sensitivity=config.use_sensitivity)
     run = RunFolder(out)
     if procs.is_main:
+        held = held_out_folders(reader, val_positions)
+        print(held_out_text(held), file=sys.stderr)
         run.save_config({**config_dict(config), "kind": "imitator", "data": data_record(data),
-                         "spec": reader.spec.to_dict()})
+                         "spec": reader.spec.to_dict(), "held_out": held})
     procs.barrier()
     runtime = dataclasses.replace(config, device=device)  # this process's device (cuda:LOCAL_RANK under torchrun)
     torch.manual_seed(config.seed)

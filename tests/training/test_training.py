@@ -10,6 +10,7 @@ torch = pytest.importorskip("torch")
 pytest.importorskip("bpy")
 
 from training.config import EncoderConfig, ImitatorConfig, data_record, resolve_config  # noqa: E402
+from training.data import held_out_folders, held_out_text, split  # noqa: E402
 from training.export import export_encoder  # noqa: E402
 from training.run import RunFolder  # noqa: E402
 from training.train_encoder import train_encoder  # noqa: E402
@@ -123,11 +124,25 @@ def test_several_datasets_train_as_one_in_the_order_given(lipstick_dataset, colo
     np.testing.assert_array_equal(union[30].unit, one[6].unit)
     config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=2", "loss=graphics"])
     run = train_encoder([str(lipstick_dataset)] * 2, None, str(tmp_path / "two"), config)
-    assert json.loads((run.path / "config.json").read_text())["data"] == [str(lipstick_dataset)] * 2
+    recorded = json.loads((run.path / "config.json").read_text())
+    assert recorded["data"] == [str(lipstick_dataset)] * 2
+    assert recorded["held_out"] == [{"folder": str(lipstick_dataset), "held_out": 10, "of": 24}]  # 0.2 of 48
     assert data_record([str(lipstick_dataset)]) == data_record(lipstick_dataset) == str(lipstick_dataset)
     with pytest.raises(VtoError, match="differ in their spec: one training set needs one"):
         train_encoder([str(lipstick_dataset), str(colour_dataset)], None, str(tmp_path / "mixed"), config)
     assert not (tmp_path / "mixed").exists()
+
+
+def test_the_held_out_tail_of_several_folders_names_each_folder_it_takes_looks_from(lipstick_dataset):
+    union = DatasetUnion([lipstick_dataset, lipstick_dataset, lipstick_dataset])  # 3 x 24 looks
+    _, held = split(union, 0.4)  # 29 looks: the last folder whole, and 5 of the one before
+    assert held_out_folders(union, held) == [{"folder": str(lipstick_dataset), "held_out": 24, "of": 24},
+                                             {"folder": str(lipstick_dataset), "held_out": 5, "of": 24}]
+    assert held_out_text(held_out_folders(union, held)) == (
+        f"held out for validation (not trained on): all 24 of {lipstick_dataset}, 5 of 24 of {lipstick_dataset}")
+    one = DatasetReader(lipstick_dataset)
+    assert held_out_folders(one, split(one, 0.1)[1]) == [{"folder": str(lipstick_dataset), "held_out": 2, "of": 24}]
+    assert held_out_text(held_out_folders(one, split(one, 0.0)[1])).endswith(": none")
 
 
 def test_an_absolute_weighted_graphics_loss_trains_and_a_bad_weight_leaves_no_run_folder(lipstick_dataset, tmp_path):
