@@ -64,9 +64,9 @@ def split(reader: DatasetReader, val_fraction: float) -> tuple[list[int], list[i
 
 
 def held_out_folders(reader, val_positions: list[int]) -> list[dict]:
-    """Which folders the held-out tail takes looks from: [{"folder", "held_out", "of"}], last first. A folder held out
-    whole is never trained on: the tail of several folders comes from the last ones given, whole folders at a time
-    when the last is small (the session 66-70 runs that gave the darker faces' folder last never trained on it)."""
+    """Which folders the held-out tail takes looks from: [{"folder", "held_out", "of"}], last first. The tail of
+    several folders comes from the last ones given, whole folders of it when the last is small: a folder given last
+    to be trained on may never be."""
     parts = getattr(reader, "parts", [reader])
     starts = getattr(reader, "starts", [0, len(reader)])
     first = min(val_positions, default=len(reader))

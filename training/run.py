@@ -37,7 +37,9 @@ class RunFolder:
         path = self.path / CONFIG
         if path.exists():
             saved = json.loads(path.read_text())
-            changed = sorted(k for k in set(saved) | set(config) if k != "steps" and saved.get(k) != config.get(k))
+            # Steps may grow; what the held-out tail takes is recorded, not a setting (runs before it was lack it).
+            changed = sorted(k for k in set(saved) | set(config)
+                             if k not in ("steps", "held_out") and saved.get(k) != config.get(k))
             if changed:
                 raise VtoError(f"{self.path} was trained with other settings ({', '.join(changed)}); use a new --out")
         write_text_atomic(path, json.dumps(config, indent=1, sort_keys=True) + "\n")
