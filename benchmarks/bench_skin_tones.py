@@ -165,10 +165,8 @@ def summarise(rows: list[dict]) -> tuple[list[str], dict[str, dict]]:
         products = {name: (float(np.median(bias[[r["product"] == name for r in have]])),
                            float(np.median(error[[r["product"] == name for r in have]])))
                     for name in PRODUCTS if any(r["product"] == name for r in have)}
-        groups = {g: (float(np.median(error[[r["group"] == g for r in have]])),
-                      float(np.median(bias[[r["group"] == g for r in have]])))
-                  for g in GROUPS if any(r["group"] == g for r in have)}
-        in_group = {g: np.array([r["group"] == g for r in have]) for g in groups}
+        in_group = {g: s for g in GROUPS for s in [np.array([r["group"] == g for r in have])] if s.any()}
+        groups = {g: (float(np.median(error[s])), float(np.median(bias[s]))) for g, s in in_group.items()}
         pulls = {g: (slope(truth[s, 0], found[s, 0]), slope(found[s, 0], truth[s, 0]))
                  for g, s in {**in_group, "all": np.ones(len(have), bool)}.items() if s.sum() > 2}
         fast = np.array([r["estimates"]["fast"]["lab"] for r in have])  # Fast on the same looks: the dial's measure

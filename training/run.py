@@ -37,7 +37,7 @@ class RunFolder:
         path = self.path / CONFIG
         if path.exists():
             saved = json.loads(path.read_text())
-            # Steps may grow; what the held-out tail takes is recorded, not a setting (runs before it was lack it).
+            # Steps may grow; held_out is a record, not a setting (runs made before it was recorded lack it).
             changed = sorted(k for k in set(saved) | set(config)
                              if k not in ("steps", "held_out") and saved.get(k) != config.get(k))
             if changed:

@@ -129,14 +129,19 @@ def finished_indices(root: Path) -> set[int]:
     return {int(entry.name) for entry in os.scandir(folder) if entry.name.isdigit()}
 
 
+def temporary_prefix(index: int) -> str:
+    """How the name of sample `index`'s folder being written begins (the writer's process id follows)."""
+    return f"{TMP_PREFIX}{sample_name(index)}-"
+
+
 def remove_stale_temporaries(root: Path, indices=None) -> int:
     """Delete the half-written folders a killed run left of samples `indices` (None: of every sample); returns how
     many. A shard passes its own: another shard may be writing its samples beside it, in folders of their own."""
     folder = Path(root) / SAMPLES_DIR
     stale = [p for p in folder.glob(TMP_PREFIX + "*")] if folder.is_dir() else []
     if indices is not None:
-        owned = {sample_name(i) for i in indices}
-        stale = [p for p in stale if p.name[len(TMP_PREFIX):].split("-")[0] in owned]
+        owned = {temporary_prefix(i) for i in indices}
+        stale = [p for p in stale if p.name[:len(temporary_prefix(0))] in owned]
     for path in stale:
         shutil.rmtree(path, ignore_errors=True)
     return len(stale)
@@ -147,7 +152,7 @@ class SampleWriter:
 
     def __init__(self, root: Path, index: int):
         self.final = Path(root) / SAMPLES_DIR / sample_name(index)
-        self.tmp = self.final.with_name(f"{TMP_PREFIX}{sample_name(index)}-{os.getpid()}")
+        self.tmp = self.final.with_name(f"{temporary_prefix(index)}{os.getpid()}")
         shutil.rmtree(self.tmp, ignore_errors=True)
         self.tmp.mkdir(parents=True)
 
