@@ -10,7 +10,7 @@
 # train line on a GPU. Environment: N (looks), STEPS (optimiser steps), WORKERS (render processes).
 # Lipstick renders the default lips scene under its default (portrait) lighting, without the source X (--no-source:
 # the graphics loss does not read it), twice: with the coat's Gloss Roughness drawn per look (--vary; the presets use
-# 0.05-1) and at its default 0.3, and trains on both as one (held out: the second's tail), a deeper net (a 3x3
+# 0.05-1) and at its default 0.3, and trains on both as one (held out: each one's last 10 %), a deeper net (a 3x3
 # convolution and BatchNorm a level) with photo and mouth views (benchmarks/results/lighting.md, "network";
 # presets.md, "roughness").
 # Eye shadow renders the default eye scene (portrait lighting, --no-source) once, trains the lipstick's network from

@@ -74,10 +74,11 @@ SETTINGS=(--set loss=graphics --set augment=true --set photo_views=true --set mo
        --set batch_norm=true --set lr=0.0003 --set schedule=cosine --set warmup_steps=50 --set input_filter=3
        --set colour_imitator=blender_addon/models/lipstick_colour.onnx --set lambda_colour=1.0 --set log_every=250
        --set checkpoint_every=1000 --set steps="${STEPS:-4000}")
-# The held-out tail (val_fraction 0.1 of 36,000 looks) comes from the last folders: of dark82l given twice, the whole
-# second copy and the last 600 looks of the first, so the shipped file (whole_c) trained on 2,400 of its 3,000 looks,
-# once; whole_b and whole_d, which gave it once and last, never trained on it (found in session 70; `vto train` now
-# names those folders in its log and in the run's config.json, `held_out`).
+# The shipped file (whole_c) was trained with the held-out tail of all the folders together (`--set val_split=tail`,
+# the only split then): of dark82l given twice, the whole second copy and the last 600 looks of the first, so it
+# trained on 2,400 of its 3,000 looks, once; whole_b and whole_d, which gave it once and last, never trained on it
+# (found in session 70). `vto train` now holds out each folder's own last 10 % and names them in its log and in the
+# run's config.json (`held_out`).
 $VTO train encoder --data out/data/lip64e out/data/faces72 out/data/london71 out/data/london74p out/data/london75k \
     out/data/london76k out/data/lip64k out/data/london78l out/data/lip64l out/data/london80l out/data/lip64m \
     out/data/dark82l out/data/dark82l \

@@ -37,6 +37,7 @@ class CommonConfig:
     device: str = "cpu"
     seed: int = 0
     val_fraction: float = 0.1  # held-out share of the dataset (last samples by index)
+    val_split: str = "each"  # each: that share of every --data folder; tail: of the folders together (before 2026-11-29)
     log_every: int = 10
     checkpoint_every: int = 200
     num_workers: int = 0  # DataLoader workers
@@ -103,7 +104,8 @@ PRESETS = {
 }
 PRESET_CLASSES = {"cpu": ("EncoderConfig",)}  # presets measured for some networks only
 _CHOICES = {"perceptual": ("auto", "vgg", "ssim_l1"), "schedule": ("constant", "cosine"),
-            "loss": ("graphics", "rendering", "both"), "graphics_error": ("squared", "absolute")}
+            "loss": ("graphics", "rendering", "both"), "graphics_error": ("squared", "absolute"),
+            "val_split": ("each", "tail")}
 
 
 def _convert(kind, text: str):

@@ -54,24 +54,29 @@ class RenderDataset(Dataset):
         return batch
 
 
-def split(reader: DatasetReader, val_fraction: float) -> tuple[list[int], list[int]]:
-    """Positions of training and held-out samples (the held-out ones are the last by index)."""
+def split(reader: DatasetReader, val_fraction: float, each: bool = True) -> tuple[list[int], list[int]]:
+    """Positions of training and held-out samples: the last `val_fraction` of every folder (each) or of all of them
+    together (the tail, whole folders of it when the last is small: a folder given last may never be trained on)."""
     count = len(reader)
     if count < 2:
         raise VtoError(f"{reader.root} holds {count} finished samples; training needs at least 2")
-    held_out = min(max(int(round(count * val_fraction)), 1 if val_fraction > 0 else 0), count - 1)
-    return list(range(count - held_out)), list(range(count - held_out, count))
+    starts = getattr(reader, "starts", [0, count]) if each else [0, count]
+    val = []
+    for start, end in zip(starts[:-1], starts[1:]):
+        size = end - start
+        val += range(end - min(int(round(size * val_fraction)), size - 1), end)
+    if val_fraction > 0 and not val:
+        val = [count - 1]
+    held = set(val)
+    return [i for i in range(count) if i not in held], val
 
 
 def held_out_folders(reader, val_positions: list[int]) -> list[dict]:
-    """Which folders the held-out tail takes looks from: [{"folder", "held_out", "of"}], last first. The tail of
-    several folders comes from the last ones given, whole folders of it when the last is small: a folder given last
-    to be trained on may never be."""
+    """Which folders the held-out looks come from: [{"folder", "held_out", "of"}], in the order given."""
     parts = getattr(reader, "parts", [reader])
     starts = getattr(reader, "starts", [0, len(reader)])
-    first = min(val_positions, default=len(reader))
-    return [{"folder": str(part.root), "held_out": int(starts[i + 1] - max(first, starts[i])), "of": len(part)}
-            for i, part in reversed(list(enumerate(parts))) if starts[i + 1] > first]
+    counts = np.bincount(np.searchsorted(starts, val_positions, side="right") - 1, minlength=len(parts))
+    return [{"folder": str(part.root), "held_out": int(n), "of": len(part)} for part, n in zip(parts, counts) if n]
 
 
 def held_out_text(held: list[dict]) -> str:

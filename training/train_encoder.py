@@ -108,7 +108,7 @@ def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], 
     wraps = [p.wraps for p in reader.spec.modelled_params]
     weights = parameter_weights(config.parameter_weights, [p.name for p in reader.spec.modelled_params])
     imitator = load_frozen_imitator(imitator_run, reader.spec, device, image_size) if use_rendering else None
-    train_positions, val_positions = split(reader, config.val_fraction)
+    train_positions, val_positions = split(reader, config.val_fraction, config.val_split == "each")
     config = with_epochs(config, len(train_positions))
     initial = None
     if config.init:  # fine-tuning: refused here, before a run folder exists, for another spec or network

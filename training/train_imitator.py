@@ -92,7 +92,7 @@ def _train_imitator(reader: DatasetReader | DatasetUnion, data: str | list[str],
                     procs: Processes) -> RunFolder:
     # 1. Data, resolved config, run folder.
     device = procs.device
-    train_positions, val_positions = split(reader, config.val_fraction)
+    train_positions, val_positions = split(reader, config.val_fraction, config.val_split == "each")
     config = with_epochs(config, len(train_positions))
     train_set = RenderDataset(reader, train_positions, need_sensitivity=config.use_sensitivity)
     run = RunFolder(out)

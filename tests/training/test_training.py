@@ -1,5 +1,6 @@
 """Training runs on a small real dataset: losses fall, the encoder beats the mean, resume, NaN stop, export."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -129,25 +130,48 @@ def test_several_datasets_train_as_one_in_the_order_given(lipstick_dataset, colo
     run = train_encoder([str(lipstick_dataset)] * 2, None, str(tmp_path / "two"), config)
     recorded = json.loads((run.path / "config.json").read_text())
     assert recorded["data"] == [str(lipstick_dataset)] * 2
-    assert recorded["held_out"] == [{"folder": str(lipstick_dataset), "held_out": 10, "of": 24}]  # 0.2 of 48
+    assert recorded["held_out"] == [{"folder": str(lipstick_dataset), "held_out": 5, "of": 24}] * 2  # 0.2 of each
     assert data_record([str(lipstick_dataset)]) == data_record(lipstick_dataset) == str(lipstick_dataset)
     with pytest.raises(VtoError, match="differ in their spec: one training set needs one"):
         train_encoder([str(lipstick_dataset), str(colour_dataset)], None, str(tmp_path / "mixed"), config)
     assert not (tmp_path / "mixed").exists()
 
 
-def test_the_held_out_tail_of_several_folders_names_each_folder_it_takes_looks_from(lipstick_dataset):
+def test_each_folder_holds_out_its_own_last_looks_so_every_folder_is_trained_on(lipstick_dataset):
     union = DatasetUnion([lipstick_dataset, lipstick_dataset, lipstick_dataset])  # 3 x 24 looks
-    _, held = split(union, 0.4)  # 29 looks: the last folder whole, and 5 of the one before
-    assert held_out_folders(union, held) == [{"folder": str(lipstick_dataset), "held_out": 24, "of": 24},
-                                             {"folder": str(lipstick_dataset), "held_out": 5, "of": 24}]
+    train, held = split(union, 0.4)  # 10 of each
+    assert held == [*range(14, 24), *range(38, 48), *range(62, 72)] and len(train) == 42
+    assert set(train).isdisjoint(held) and sorted(train + held) == list(range(72))
+    assert held_out_folders(union, held) == [{"folder": str(lipstick_dataset), "held_out": 10, "of": 24}] * 3
     assert held_out_text(held_out_folders(union, held)) == (
-        f"held out for validation (not trained on): all 24 of {lipstick_dataset}, 5 of 24 of {lipstick_dataset}")
+        "held out for validation (not trained on): " + ", ".join([f"10 of 24 of {lipstick_dataset}"] * 3))
     one = DatasetReader(lipstick_dataset)
-    assert held_out_folders(one, split(one, 0.1)[1]) == [{"folder": str(lipstick_dataset), "held_out": 2, "of": 24}]
+    assert split(one, 0.1) == split(one, 0.1, each=False) == (list(range(22)), [22, 23])
     assert held_out_text(held_out_folders(one, split(one, 0.0)[1])).endswith(": none")
 
 
+def test_the_tail_of_several_folders_takes_whole_folders_and_names_them(lipstick_dataset):
+    union = DatasetUnion([lipstick_dataset, lipstick_dataset, lipstick_dataset])
+    _, held = split(union, 0.4, each=False)  # 29 looks: the last folder whole, and 5 of the one before
+    assert held == list(range(43, 72))
+    assert held_out_folders(union, held) == [{"folder": str(lipstick_dataset), "held_out": 5, "of": 24},
+                                             {"folder": str(lipstick_dataset), "held_out": 24, "of": 24}]
+    assert held_out_text(held_out_folders(union, held)) == (
+        f"held out for validation (not trained on): 5 of 24 of {lipstick_dataset}, all 24 of {lipstick_dataset}")
+
+
+def test_a_run_of_several_folders_made_before_val_split_resumes_only_with_the_tail(lipstick_dataset, tmp_path):
+    out = tmp_path / "legacy"
+    config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=2", "loss=graphics", "val_split=tail"])
+    train_encoder([str(lipstick_dataset)] * 2, None, str(out), config)
+    saved = json.loads((out / "config.json").read_text())
+    del saved["val_split"], saved["held_out"]
+    (out / "config.json").write_text(json.dumps(saved))
+    each = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=4", "loss=graphics"])
+    with pytest.raises(VtoError, match=r"other settings \(val_split\)"):
+        train_encoder([str(lipstick_dataset)] * 2, None, str(out), each)
+    resumed = train_encoder([str(lipstick_dataset)] * 2, None, str(out), dataclasses.replace(config, steps=4))
+    assert RunFolder(resumed.path).load_checkpoint()["step"] == 4
 def test_an_absolute_weighted_graphics_loss_trains_and_a_bad_weight_leaves_no_run_folder(lipstick_dataset, tmp_path):
     settings = TINY_ENCODER + ["steps=3", "loss=graphics", "graphics_error=absolute"]
     config = resolve_config(EncoderConfig, None, settings + ["parameter_weights=red=4,green=4,blue=4"])
