@@ -36,7 +36,7 @@ class CommonConfig:
     vgg_weights: str = ""  # torchvision vgg16 state dict; empty: $VTO_VGG16_WEIGHTS, then $TORCH_HOME/hub/checkpoints
     device: str = "cpu"
     seed: int = 0
-    val_fraction: float = 0.1  # held-out share of the dataset (last samples by index)
+    val_fraction: float = 0.1  # held-out share of the looks (the last by index; of each folder, or see val_split)
     val_split: str = "each"  # each: that share of every --data folder; tail: of the folders together (before 2026-11-29)
     log_every: int = 10
     checkpoint_every: int = 200

@@ -38,11 +38,13 @@ def _user_scene() -> str | None:
 
 def cmd_dataset(argv: list[str]) -> int:
     """vto dataset RENDERER --out DIR --n N --seed S [--shard i/K] [--res] [--samples] [--params] [--sensitivity] [--workers W]."""
+    import os
+
     import bpy
 
     from vto_core.dataset import parse_shard, shard_from_env, shard_range
 
-    from .dataset import DatasetJob, prepare_output, run_in_process, run_workers, worker_indices
+    from .dataset import DatasetJob, prepare_output, run_in_process, run_workers, terminate_as_exit, worker_indices
 
     parser = ArgumentParser(prog="vto dataset", description="render a training dataset (paper 5.2, 6.1)")
     parser.add_argument("renderer", choices=product_names())
@@ -120,7 +122,8 @@ def cmd_dataset(argv: list[str]) -> int:
                      args.uniform_lightness)
     indices = shard_range(job.n, shard)
     if args.worker is not None:  # one of run_workers' processes: its share of the shard, then exit
-        run_in_process(job, worker_indices(indices, parse_shard(args.worker)), args.limit, quiet=True)
+        run_in_process(job, worker_indices(indices, parse_shard(args.worker)), args.limit, quiet=True,
+                       parent=os.getppid())
         return 0
     prepare_output(job, indices)
     if args.workers == 1:
@@ -130,8 +133,9 @@ def cmd_dataset(argv: list[str]) -> int:
         for option in ("--workers", "--shard", "--limit", "--params"):
             forwarded = _drop_option(forwarded, option)
         forwarded += ["--shard", f"{shard[0]}/{shard[1]}", "--params", ",".join(job.spec.modelled)]
-        made = run_workers(job, indices, args.workers, _launcher() + ["dataset", *forwarded], args.restart_every,
-                           args.quiet)
+        with terminate_as_exit():  # a `kill` stops the workers too (run_workers' finally)
+            made = run_workers(job, indices, args.workers, _launcher() + ["dataset", *forwarded],
+                               args.restart_every, args.quiet)
     print(json.dumps({"out": args.out, "shard": f"{shard[0]}/{shard[1]}", "indices": [indices.start, indices.stop],
                       "made": made}))
     return 0

@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -290,16 +294,36 @@ def renders_per_sample(job: DatasetJob) -> int:
     return 1 + (job.spec.size if job.sensitivity else 0) + (job.product.renders_source and job.source_images)
 
 
-def run_in_process(job: DatasetJob, indices, limit: int | None = None, quiet: bool = False) -> int:
-    """Render the unfinished `indices` here, at most `limit` of them; returns how many were made."""
+def run_in_process(job: DatasetJob, indices, limit: int | None = None, quiet: bool = False,
+                   parent: int | None = None) -> int:
+    """Render the unfinished `indices` here, at most `limit` of them; returns how many were made. A worker given its
+    `parent`'s pid stops when that process is gone (killed: nothing is left to stop it, and a run started again on
+    the folder would render beside it)."""
     todo = [i for i in indices if i not in finished_indices(Path(job.out))]
     if limit is not None:
         todo = todo[:limit]
     renderer = SampleRenderer(job)
+    made = 0
     with progress_bar(len(todo), renders_per_sample(job), quiet) as progress:
         for index in todo:
+            if parent is not None and os.getppid() != parent:
+                break
             progress.update(renderer.render(index))
-    return len(todo)
+            made += 1
+    return made
+
+
+@contextlib.contextmanager
+def terminate_as_exit():
+    """SIGTERM raises SystemExit inside (its default ends the process at once, before a finally can stop workers)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def run_workers(job: DatasetJob, indices: range, workers: int, worker_command: list[str], restart_every: int,

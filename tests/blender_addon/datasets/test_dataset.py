@@ -142,6 +142,25 @@ def test_eyeshadow_dataset_resumes_after_a_kill_and_shards_to_the_same_files(tmp
     assert tree_hashes(tmp_path / "clean") == tree_hashes(tmp_path / "killed")
 
 
+@pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGKILL])
+def test_workers_stop_when_their_run_is_killed(tmp_path, stop):
+    """`kill` (SIGTERM) ends the workers with the run; after kill -9 each worker sees it is orphaned and stops, so a
+    run started again on the folder is not rendered beside."""
+    out, n = tmp_path / "killed", 3000
+    command = [sys.executable, "-m", "vto_core.cli", "dataset", "lipstick", "--n", str(n), *TINY, "--out", str(out),
+               "--workers", "2", "--restart-every", str(n)]
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while time.time() < deadline and len(list((out / "samples").glob("0*"))) < 4:
+        time.sleep(0.05)
+    os.kill(process.pid, stop)
+    assert process.wait(timeout=30) != 0
+    time.sleep(3)  # a sample in flight may still land
+    settled = len(list((out / "samples").glob("0*")))
+    time.sleep(3)
+    assert len(list((out / "samples").glob("0*"))) == settled < n
+
+
 def test_two_workers_make_the_same_files(tmp_path):
     make(tmp_path / "one", 4)
     make(tmp_path / "two", 4, "--workers", "2")
