@@ -172,6 +172,8 @@ def test_a_run_of_several_folders_made_before_val_split_resumes_only_with_the_ta
         train_encoder([str(lipstick_dataset)] * 2, None, str(out), each)
     resumed = train_encoder([str(lipstick_dataset)] * 2, None, str(out), dataclasses.replace(config, steps=4))
     assert RunFolder(resumed.path).load_checkpoint()["step"] == 4
+
+
 def test_an_absolute_weighted_graphics_loss_trains_and_a_bad_weight_leaves_no_run_folder(lipstick_dataset, tmp_path):
     settings = TINY_ENCODER + ["steps=3", "loss=graphics", "graphics_error=absolute"]
     config = resolve_config(EncoderConfig, None, settings + ["parameter_weights=red=4,green=4,blue=4"])
