@@ -112,9 +112,8 @@ def looks(faces: list[dict], args, cache: Path) -> list[dict]:
                                                 "model": digests[methods[method][0]]}
                 with cache.open("a") as out:
                     out.write(json.dumps(row) + "\n")
-            # only this run's methods, each as read by its encoder now (a cached row keeps other files' reads)
-            rows.append({**row, "estimates": {m: e for m, e in row["estimates"].items() if m in methods
-                                              and e.get("model", digests[methods[m][0]]) == digests[methods[m][0]]}})
+            # this run's methods alone, each read by its encoder now (a cached row keeps other methods' reads)
+            rows.append({**row, "estimates": {m: row["estimates"][m] for m in methods}})
         print(f"{record['file']} done", file=sys.stderr, flush=True)
     return rows
 

@@ -37,8 +37,9 @@ class RunFolder:
         path = self.path / CONFIG
         if path.exists():
             saved = json.loads(path.read_text())
-            if "val_split" in config and "val_split" not in saved:  # made before it was a setting: one folder's
-                saved["val_split"] = "tail" if isinstance(saved.get("data"), list) else config["val_split"]  # are alike
+            if "val_split" in config and "val_split" not in saved:
+                # A run made before val_split was a setting held out the tail; for one folder the two splits are alike.
+                saved["val_split"] = "tail" if isinstance(saved.get("data"), list) else config["val_split"]
             # Steps may grow; held_out is a record, not a setting (runs made before it was recorded lack it).
             changed = sorted(k for k in set(saved) | set(config)
                              if k not in ("steps", "held_out") and saved.get(k) != config.get(k))
