@@ -13,7 +13,8 @@ found: every portrait of benchmarks/photos and every held-out face of data/faces
     read back by `vto match` (Fast, both eyes' mean; Better and Best with --qualities, fitted in the photo's own scene
     on the right eye's lid, Best on the first --best-faces faces); truth and estimate rendered on default eye sources 0-7 (64 px,
     16 spp): CIEDE2000 between their apparent colours (the median over the sources of the lid's mean colour), the
-    product L* slope (estimate on truth, over every look), and the time.
+    product L* slope (estimate on truth, over every look), and the time; and what Fast reads of each product's finish
+    (shimmer, metallic, sparkle).
 speed: Fast and the panel's preview on a 1 MP portrait.
 (b) made_up: real made-up eyes (benchmarks/photos/made_up_lids.json, each lid's shadow outlined by hand): each quality's
     estimate worn on the lid as Better and Best see it (the photo's light, the bare lid from the skin beside it) against
@@ -50,6 +51,7 @@ MADE_UP = ROOT / "benchmarks" / "photos" / "made_up_lids.json"  # part (b): real
 PRODUCTS = ("Vanilla Bone", "Soft Beige", "Warm Taupe", "Mocha Brown", "Espresso", "Jet Black", "Charcoal Smoke",
             "Navy Night", "Deep Teal", "Emerald", "Plum", "Royal Purple", "Champagne", "Gold Leaf", "Bronze",
             "Silver Glitter")
+FINISHES = ("shimmer", "metallic", "sparkle_density")  # the roundtrip's finish table: what a photo shows of each
 MOVE_PRODUCTS = ("Warm Taupe", "Jet Black", "Plum", "Gold Leaf")
 LIGHTS = {"3,200 K": (3200.0, 0.0), "7,500 K": (7500.0, 0.0), "+0.7 EV": (6504.0, 0.7), "-0.7 EV": (6504.0, -0.7)}
 MOVE_TILTS = tuple(t for t in TILTS if abs(t) <= 45)
@@ -186,17 +188,19 @@ def tried_on(work: Path, faces: int, products: int) -> list[tuple[dict, str, Pat
 
 def roundtrip(models: dict[str, Path], worn: list, renders: Renders, qualities: list[str], best_faces: int) -> str:
     """Part (a): per model and quality (the new model's Better and Best: Best on the first best_faces faces, beside
-    Fast and Better there), the median CIEDE2000, the product L* slope and the time; per face and per product."""
+    Fast and Better there), the median CIEDE2000, the product L* slope and the time; per face and per product, and
+    what the new model's Fast reads of each product's finish."""
     from vto_core.presets import load_presets
+    from vto_core.products import get_spec
 
-    presets = load_presets("eyeshadow")
+    spec, presets = get_spec("eyeshadow"), load_presets("eyeshadow")
     first = {entry["file"] for entry in held_out_faces(best_faces)}
     some = [look for look in worn if look[0]["file"] in first]
     runs = [(label, "fast", worn) for label in models]
     runs += [("new", quality, worn) for quality in qualities if quality == "better"]
     if "best" in qualities:
         runs += [("new", quality, some) for quality in ("fast", "better", "best")]
-    rows, per_face, per_product = [], {}, {}
+    rows, per_face, per_product, finishes = [], {}, {}, {}
     for label, quality, looked in runs:
         if looked is some:
             label = f"{label}, {quality} (first {best_faces} faces)"
@@ -212,6 +216,8 @@ def roundtrip(models: dict[str, Path], worn: list, renders: Renders, qualities: 
             times.append(ms)
             per_face.setdefault(entry["subject"].split(",")[0], {}).setdefault(label, []).append(errors[-1])
             per_product.setdefault(name, {}).setdefault(label, []).append(found_l[-1] - truth_l[-1])
+            if label == "new":
+                finishes.setdefault(name, []).append([values[finish] for finish in FINISHES])
         slope = np.polyfit(truth_l, found_l, 1)[0]
         rows.append([label, len(looked), f"{np.median(errors):.2f}", f"{np.mean(errors):.2f}", f"{slope:.2f}",
                      f"{np.median(times):,.0f}"])
@@ -230,7 +236,12 @@ def roundtrip(models: dict[str, Path], worn: list, renders: Renders, qualities: 
                "median ms (a whole `match`)"], rows),
         "", "Median CIEDE2000 per face:", "", table(["face", *labels], face_rows),
         "", "Median L* error per product (estimate - truth, apparent on sources 0-7):", "",
-        table(["product", "truth L*", *labels], product_rows)])
+        table(["product", "truth L*", *labels], product_rows),
+        "", "The finish each product has, and what the new model's Fast reads of it (median over the faces):", "",
+        table(["product", *[f"{finish} (truth / Fast)" for finish in FINISHES]],
+              [[name, *[f"{spec.full_values(presets[name])[finish]:.2f} / {found:.2f}"
+                        for finish, found in zip(FINISHES, np.median(read, axis=0))]]
+               for name, read in finishes.items()])])
 
 
 def lid_colours(photo: np.ndarray, found, hand: np.ndarray,
