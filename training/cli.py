@@ -55,12 +55,16 @@ def cmd_train(argv: list[str]) -> int:
 
 
 def cmd_export(argv: list[str]) -> int:
-    """vto export --encoder RUN [RUN ...] --out encoder.onnx."""
+    """vto export --encoder RUN [RUN|FILE.onnx ...] [--average outputs|weights] --out encoder.onnx."""
     from .export import export_encoder
 
     parser = ArgumentParser(prog="vto export", description="export an encoder run to ONNX (checked against torch)")
     parser.add_argument("--encoder", required=True, nargs="+", metavar="RUN",
-                        help="encoder run folder; several runs of one spec and size are averaged into one file")
+                        help="encoder run folder; several runs of one spec and size are averaged into one file "
+                             "(after the first run, an exported encoder of its network may stand in for a run)")
+    parser.add_argument("--average", choices=["outputs", "weights"], default="outputs",
+                        help="outputs: read each run and average the readings (n times the time); weights: read once "
+                             "through the runs' averaged weights (one network's fine-tunes of one start)")
     parser.add_argument("--out", required=True, help="the .onnx file to write")
     parser.add_argument("--opset", type=int, default=18)
     parser.add_argument("--single-view", action="store_true",
@@ -71,5 +75,5 @@ def cmd_export(argv: list[str]) -> int:
                              "the run was trained without one (training instead: --set input_filter=3)")
     args = parser.parse_args(argv)
     print(json.dumps(export_encoder(args.encoder, args.out, args.opset, mirror=not args.single_view,
-                                    smooth=args.smooth_input)))
+                                    smooth=args.smooth_input, average=args.average)))
     return 0

@@ -32,9 +32,14 @@ def input_filter(checkpoint: dict) -> int:
     return checkpoint["model_args"].get("input_filter", 0)
 
 
-def encoder_metadata(checkpoints: list[dict], mirror_averaged: bool) -> dict[str, str]:
+def filter_text(size: int) -> str:
+    """How the metadata names an input filter of `size` pixels (0: none)."""
+    return f"box {size}x{size}, edges repeated" if size else "none"
+
+
+def encoder_metadata(checkpoints: list[dict], mirror_averaged: bool, average: str) -> dict[str, str]:
     """What the ONNX file says about itself: spec, renderer, input size and format, mirror averaging, the input's
-    filter, versions."""
+    filter, how its runs were averaged, versions."""
     height, width = checkpoints[0]["image_size"]
     filters = sorted({input_filter(c) for c in checkpoints})
     spec = checkpoints[0]["spec"]
@@ -46,17 +51,24 @@ def encoder_metadata(checkpoints: list[dict], mirror_averaged: bool) -> dict[str
         f"{METADATA_PREFIX}input_normalisation": "NCHW float32, display sRGB values in [0, 1]",
         f"{METADATA_PREFIX}output": "normalised parameters in [0, 1], in the spec's vector order",
         f"{METADATA_PREFIX}mirror_averaged": str(mirror_averaged).lower(),
-        f"{METADATA_PREFIX}input_filter": ", ".join(f"box {k}x{k}, edges repeated" if k else "none" for k in filters),
+        f"{METADATA_PREFIX}input_filter": ", ".join(filter_text(k) for k in filters),
         f"{METADATA_PREFIX}averaged_runs": str(len(checkpoints)),
+        f"{METADATA_PREFIX}averaged": average if len(checkpoints) > 1 else "none",
         f"{METADATA_PREFIX}version": vto_core.__version__,
         f"{METADATA_PREFIX}trained_steps": ",".join(str(c["step"]) for c in checkpoints),
     }
 
 
 def load_encoder_runs(run_paths: list[str]) -> list[dict]:
-    """The checkpoints of encoder runs of one spec and input size (VtoError naming the first that differs)."""
+    """The checkpoints of encoder runs of one spec and input size (VtoError naming the first that differs). An exported
+    encoder (.onnx) after the first run reads as a checkpoint of that run's network holding the file's weights."""
     checkpoints = []
     for run_path in run_paths:
+        if str(run_path).endswith(".onnx"):
+            if not checkpoints:
+                raise VtoError(f"{run_path}: an exported encoder needs a run before it, whose network it holds")
+            checkpoints.append(exported_checkpoint(str(run_path), checkpoints[0]))
+            continue
         checkpoint = RunFolder(run_path).load_checkpoint(required=True)
         if checkpoint.get("kind") != "encoder":
             raise VtoError(f"{run_path} is a {checkpoint.get('kind')} run; export takes an encoder run")
@@ -67,6 +79,38 @@ def load_encoder_runs(run_paths: list[str]) -> list[dict]:
                                f"need one")
         checkpoints.append(checkpoint)
     return checkpoints
+
+
+def exported_checkpoint(path: str, template: dict) -> dict:
+    """An exported encoder as a checkpoint like `template` (a run's, whose spec and network it must have): its weights,
+    its mirror training as the file says, its trained steps."""
+    from .networks import build
+
+    spec = RendererSpec.from_dict(template["spec"])
+    session = EncoderSession(path, expected_spec=spec)  # refuses another spec
+    if tuple(session.input_size) != tuple(template["image_size"]):
+        raise VtoError(f"{path} reads {session.input_size} images, the runs {tuple(template['image_size'])}")
+    said = {key.removeprefix(METADATA_PREFIX): value for key, value in session.metadata.items()}
+    if said.get("input_filter") != filter_text(input_filter(template)):
+        raise VtoError(f"{path} reads its input through {said.get('input_filter')}, the runs through "
+                       f"{filter_text(input_filter(template))}")
+    return {**template, "model": onnx_encoder_weights(path, build("encoder", template["model_args"]), spec),
+            "config": {**template.get("config", {}), "augment": said.get("mirror_averaged") == "true"},
+            "step": said.get("trained_steps", "?")}
+
+
+def weight_soup(checkpoints: list[dict]) -> dict:
+    """One checkpoint of the same network whose every weight (batch-norm statistics too) is the mean of
+    `checkpoints`': a weight soup, read at one encoder's cost. Fine-tunes of one start share a basin, where the mean of
+    their weights reads about as the mean of their readings (Wortsman et al. 2022). VtoError for another network."""
+    first = checkpoints[0]
+    for checkpoint in checkpoints[1:]:
+        if checkpoint["model_args"] != first["model_args"]:
+            raise VtoError(f"weights average only over one network: {checkpoint['model_args']} is not "
+                           f"{first['model_args']}")
+    model = {name: (sum(c["model"][name].double() for c in checkpoints) / len(checkpoints)).to(tensor.dtype)
+             if tensor.is_floating_point() else tensor for name, tensor in first["model"].items()}
+    return {**first, "model": model}
 
 
 def onnx_tensors(path: str) -> dict[str, torch.Tensor]:
@@ -117,25 +161,30 @@ def onnx_colour_net(path: str, spec: RendererSpec) -> torch.nn.Module:
 
 
 def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, mirror: bool = True,
-                   smooth: bool = False) -> dict:
-    """RUN/checkpoint.pt (or several runs, averaged: networks.Averaged) -> out_path (.onnx); onnx.checker and
-    onnxruntime-vs-torch parity must pass. With `mirror`, runs all trained on mirrored views are exported
-    mirror-averaged (networks.MirrorAveraged): twice the encoder's ~1 ms for a lower error
+                   smooth: bool = False, average: str = "outputs") -> dict:
+    """RUN/checkpoint.pt (or several runs, averaged) -> out_path (.onnx); onnx.checker and onnxruntime-vs-torch parity
+    must pass. Several runs of one spec and size are averaged by `average`: "outputs" reads each and averages the
+    readings (networks.Averaged, n times the time), "weights" reads once through their averaged weights (weight_soup:
+    one network's runs only); an exported encoder (.onnx) may stand among them after the first run. With `mirror`,
+    runs all trained on mirrored views are exported mirror-averaged (networks.MirrorAveraged): twice the encoder's ~1 ms for a lower error
     (blender_addon/models/lipstick_encoder.md). With `smooth`, a run trained without an input filter reads its input
     box-filtered over 3 x 3 pixels all the same (networks.Encoder's input_filter), steadier against a framing a pixel
     off."""
     import onnx
 
+    if average not in ("outputs", "weights"):
+        raise VtoError(f"average must be 'outputs' or 'weights', got {average!r}")
     run_paths = [run_paths] if isinstance(run_paths, (str, os.PathLike)) else list(run_paths)
     checkpoints = load_encoder_runs(run_paths)
     if smooth:
         checkpoints = [{**c, "model_args": {**c["model_args"], "input_filter": input_filter(c) or 3}}
                        for c in checkpoints]
+    mirror_averaged = mirror and all(trained_on_mirrors(c) for c in checkpoints)
+    networks = [weight_soup(checkpoints)] if average == "weights" else checkpoints
     spec = RendererSpec.from_dict(checkpoints[0]["spec"])
     wraps = [p.wraps for p in spec.modelled_params]
-    mirror_averaged = mirror and all(trained_on_mirrors(c) for c in checkpoints)
     encoders = []
-    for checkpoint in checkpoints:
+    for checkpoint in networks:
         encoder = build("encoder", checkpoint["model_args"])
         encoder.load_state_dict(checkpoint["model"])
         encoders.append(MirrorAveraged(encoder, wraps) if mirror_averaged else encoder)
@@ -153,7 +202,7 @@ def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, m
                               opset_version=opset, dynamo=True, external_data=False,
                               dynamic_shapes=({0: torch.export.Dim("batch", min=1, max=4096)},))
         model = onnx.load(str(tmp))
-        for key, value in encoder_metadata(checkpoints, mirror_averaged).items():
+        for key, value in encoder_metadata(checkpoints, mirror_averaged, average).items():
             entry = model.metadata_props.add()
             entry.key, entry.value = key, value
         onnx.checker.check_model(model, full_check=True)
@@ -165,7 +214,8 @@ def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, m
             tmp.unlink()
     return {"out": str(out), "max_abs_diff": parity, "input_size": [height, width], "mirror_averaged": mirror_averaged,
             "input_filter": [input_filter(c) for c in checkpoints],
-            "averaged_runs": len(checkpoints), "params": checkpoints[0]["spec"]["modelled"]}
+            "averaged_runs": len(checkpoints), "averaged": average if len(checkpoints) > 1 else "none",
+            "params": checkpoints[0]["spec"]["modelled"]}
 
 
 def _parity(encoder: torch.nn.Module, path: str, height: int, width: int) -> float:

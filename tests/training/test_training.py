@@ -252,6 +252,43 @@ def test_runs_of_one_spec_export_averaged_into_one_file_and_others_are_refused(l
     assert not list(tmp_path.glob("*mixed.onnx"))
 
 
+def test_weights_average_into_one_network_and_a_file_with_itself_is_the_file(lipstick_dataset, tmp_path):
+    """--average weights: one network whose every weight is the runs' mean (an exported file may stand in for a run);
+    a run averaged with its own export reads as that export, two seeds' soup as neither, another network is refused."""
+    import onnx
+
+    from training.export import onnx_tensors
+
+    runs = []
+    for seed in (0, 1):
+        config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=3", "loss=graphics", f"seed={seed}",
+                                                                     "augment=true", "batch_norm=true"])
+        runs.append(str(train_encoder(str(lipstick_dataset), None, str(tmp_path / f"run{seed}"), config).path))
+        export_encoder(runs[-1], str(tmp_path / f"run{seed}.onnx"))
+    images = np.random.default_rng(3).random((4, 3, 16, 16), dtype=np.float32)
+    one = EncoderSession(tmp_path / "run0.onnx").predict_unit_nchw(images)
+    result = export_encoder([runs[0], str(tmp_path / "run0.onnx")], str(tmp_path / "self.onnx"), average="weights")
+    assert result["averaged"] == "weights" and result["mirror_averaged"]
+    np.testing.assert_allclose(EncoderSession(tmp_path / "self.onnx").predict_unit_nchw(images), one, atol=1e-5)
+    export_encoder([runs[0], str(tmp_path / "run1.onnx")], str(tmp_path / "soup.onnx"), average="weights")
+    stored = [onnx_tensors(str(tmp_path / f"{name}.onnx")) for name in ("run0", "run1", "soup")]
+    assert len(stored[2]) == len(stored[0])  # one network, not two read side by side
+    averaged = [name for name, tensor in stored[2].items() if tensor.is_floating_point()
+                and not torch.equal(stored[0][name], stored[1][name])]
+    assert averaged
+    for name in averaged:
+        torch.testing.assert_close(stored[2][name], (stored[0][name] + stored[1][name]) / 2, atol=1e-6, rtol=0)
+    metadata = {p.key: p.value for p in onnx.load(str(tmp_path / "soup.onnx")).metadata_props}
+    assert metadata["vto.averaged"] == "weights" and metadata["vto.averaged_runs"] == "2"
+    wider = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=2", "loss=graphics", "width=4"])
+    other = str(train_encoder(str(lipstick_dataset), None, str(tmp_path / "wider"), wider).path)
+    with pytest.raises(VtoError, match="weights average only over one network"):
+        export_encoder([runs[0], other], str(tmp_path / "mixed.onnx"), average="weights")
+    with pytest.raises(VtoError, match="needs a run before it"):
+        export_encoder([str(tmp_path / "run0.onnx"), runs[0]], str(tmp_path / "mixed.onnx"), average="weights")
+    assert not list(tmp_path.glob("*mixed.onnx"))
+
+
 def test_export_matches_torch_and_refuses_another_spec(lipstick_dataset, tmp_path):
     config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=5", "loss=graphics"])
     run = train_encoder(str(lipstick_dataset), None, str(tmp_path / "encoder"), config)
