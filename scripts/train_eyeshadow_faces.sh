@@ -2,8 +2,9 @@
 # The eye-shadow encoder trained on real faces (issue "Eye shadow from a portrait"): the shipped encoder fine-tuned on
 # looks tried on both eyes' lids of the London Set's training people (data/faces/london, its 'train' split; never its
 # evaluation people) and of data/faces' training faces (never a held-out or evaluation face), beside the default eye
-# scene's looks (out/data/eye64a, the shipped encoder's, and two more sets, out/data/eye64b and eye64c). The shipped
-# file (session 60): `START=out/eyefaces_l.onnx STEPS=8000 scripts/train_eyeshadow_faces.sh eyefaces_n --set lr=0.0003`,
+# scene's looks (out/data/eye64a, the shipped encoder's, and two more sets, out/data/eye64b and eye64c). The file
+# shipped in sessions 60-73 (the start that scripts/train_eyeshadow_soup.sh fine-tunes and averages with):
+# `START=out/eyefaces_l.onnx STEPS=8000 scripts/train_eyeshadow_faces.sh eyefaces_n --set lr=0.0003`,
 # where eyefaces_l is `START=<the file of 88091d9> STEPS=3000 ... eyefaces_l --set lr=0.0003` run before eye64c existed.
 #   scripts/train_eyeshadow_faces.sh NAME [--set key=value ...]   -> out/NAME.onnx
 # The datasets resume where they stopped (each is skipped once whole). CPU: about 15 min of rendering per 3,000 face
