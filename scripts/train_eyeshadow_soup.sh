@@ -22,7 +22,8 @@ $VTO dataset eyeshadow --out out/data/eyestats --n 4000 --seed 612 --no-source -
     $VTO train colour --data out/data/eyestats --out out/eyeshadow_colour.onnx --set steps=1500
 # The benchmark's 16 products, every dark shade among them, stay out of the kernels of the face looks.
 EYE_HELD=$(.venv/bin/python -c "from benchmarks.bench_eyeshadow_photos import PRODUCTS; print(','.join(PRODUCTS))")
-LIDS=(--no-source --uniform-ratio 0.5 --uniform-lightness --preset-kernel 0.12 --without-presets "$EYE_HELD" --workers 2)
+LIDS=(--no-source --uniform-ratio 0.5 --uniform-lightness --preset-kernel 0.12 --without-presets "$EYE_HELD"
+      --workers 2)
 $VTO dataset eyeshadow --out out/data/eyelondon94l --n 3000 --seed 94 --photos data/faces/london "${LIDS[@]}"
 $VTO dataset eyeshadow --out out/data/eyefaces95l --n 3000 --seed 95 --photos data/faces "${LIDS[@]}"
 # Sampling is per index: these are the first 9,000 looks of train_eyeshadow_faces.sh's eye64b.

@@ -166,10 +166,10 @@ def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, m
     must pass. Several runs of one spec and size are averaged by `average`: "outputs" reads each and averages the
     readings (networks.Averaged, n times the time), "weights" reads once through their averaged weights (weight_soup:
     one network's runs only); an exported encoder (.onnx) may stand among them after the first run. With `mirror`,
-    runs all trained on mirrored views are exported mirror-averaged (networks.MirrorAveraged): twice the encoder's ~1 ms for a lower error
-    (blender_addon/models/lipstick_encoder.md). With `smooth`, a run trained without an input filter reads its input
-    box-filtered over 3 x 3 pixels all the same (networks.Encoder's input_filter), steadier against a framing a pixel
-    off."""
+    runs all trained on mirrored views are exported mirror-averaged (networks.MirrorAveraged): twice the encoder's
+    ~1 ms for a lower error (blender_addon/models/lipstick_encoder.md). With `smooth`, a run trained without an input
+    filter reads its input box-filtered over 3 x 3 pixels all the same (networks.Encoder's input_filter), steadier
+    against a framing a pixel off."""
     import onnx
 
     if average not in ("outputs", "weights"):
