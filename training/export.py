@@ -37,7 +37,7 @@ def filter_text(size: int) -> str:
     return f"box {size}x{size}, edges repeated" if size else "none"
 
 
-def encoder_metadata(checkpoints: list[dict], mirror_averaged: bool, average: str) -> dict[str, str]:
+def encoder_metadata(checkpoints: list[dict], mirror_averaged: bool, averaged: str) -> dict[str, str]:
     """What the ONNX file says about itself: spec, renderer, input size and format, mirror averaging, the input's
     filter, how its runs were averaged, versions."""
     height, width = checkpoints[0]["image_size"]
@@ -53,7 +53,7 @@ def encoder_metadata(checkpoints: list[dict], mirror_averaged: bool, average: st
         f"{METADATA_PREFIX}mirror_averaged": str(mirror_averaged).lower(),
         f"{METADATA_PREFIX}input_filter": ", ".join(filter_text(k) for k in filters),
         f"{METADATA_PREFIX}averaged_runs": str(len(checkpoints)),
-        f"{METADATA_PREFIX}averaged": average if len(checkpoints) > 1 else "none",
+        f"{METADATA_PREFIX}averaged": averaged,
         f"{METADATA_PREFIX}version": vto_core.__version__,
         f"{METADATA_PREFIX}trained_steps": ",".join(str(c["step"]) for c in checkpoints),
     }
@@ -67,11 +67,11 @@ def load_encoder_runs(run_paths: list[str]) -> list[dict]:
         if str(run_path).endswith(".onnx"):
             if not checkpoints:
                 raise VtoError(f"{run_path}: an exported encoder needs a run before it, whose network it holds")
-            checkpoints.append(exported_checkpoint(str(run_path), checkpoints[0]))
-            continue
-        checkpoint = RunFolder(run_path).load_checkpoint(required=True)
-        if checkpoint.get("kind") != "encoder":
-            raise VtoError(f"{run_path} is a {checkpoint.get('kind')} run; export takes an encoder run")
+            checkpoint = exported_checkpoint(str(run_path), checkpoints[0])
+        else:
+            checkpoint = RunFolder(run_path).load_checkpoint(required=True)
+            if checkpoint.get("kind") != "encoder":
+                raise VtoError(f"{run_path} is a {checkpoint.get('kind')} run; export takes an encoder run")
         first = checkpoints[0] if checkpoints else checkpoint
         for key, what in (("spec", "parameter spec"), ("image_size", "input size")):
             if checkpoint[key] != first[key]:
@@ -83,18 +83,17 @@ def load_encoder_runs(run_paths: list[str]) -> list[dict]:
 
 def exported_checkpoint(path: str, template: dict) -> dict:
     """An exported encoder as a checkpoint like `template` (a run's, whose spec and network it must have): its weights,
-    its mirror training as the file says, its trained steps."""
+    its input size, its mirror training as the file says, its trained steps."""
     from .networks import build
 
     spec = RendererSpec.from_dict(template["spec"])
     session = EncoderSession(path, expected_spec=spec)  # refuses another spec
-    if tuple(session.input_size) != tuple(template["image_size"]):
-        raise VtoError(f"{path} reads {session.input_size} images, the runs {tuple(template['image_size'])}")
     said = {key.removeprefix(METADATA_PREFIX): value for key, value in session.metadata.items()}
     if said.get("input_filter") != filter_text(input_filter(template)):
         raise VtoError(f"{path} reads its input through {said.get('input_filter')}, the runs through "
                        f"{filter_text(input_filter(template))}")
     return {**template, "model": onnx_encoder_weights(path, build("encoder", template["model_args"]), spec),
+            "image_size": type(template["image_size"])(session.input_size),  # load_encoder_runs compares it
             "config": {**template.get("config", {}), "augment": said.get("mirror_averaged") == "true"},
             "step": said.get("trained_steps", "?")}
 
@@ -180,6 +179,7 @@ def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, m
         checkpoints = [{**c, "model_args": {**c["model_args"], "input_filter": input_filter(c) or 3}}
                        for c in checkpoints]
     mirror_averaged = mirror and all(trained_on_mirrors(c) for c in checkpoints)
+    averaged = average if len(checkpoints) > 1 else "none"
     networks = [weight_soup(checkpoints)] if average == "weights" else checkpoints
     spec = RendererSpec.from_dict(checkpoints[0]["spec"])
     wraps = [p.wraps for p in spec.modelled_params]
@@ -202,7 +202,7 @@ def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, m
                               opset_version=opset, dynamo=True, external_data=False,
                               dynamic_shapes=({0: torch.export.Dim("batch", min=1, max=4096)},))
         model = onnx.load(str(tmp))
-        for key, value in encoder_metadata(checkpoints, mirror_averaged, average).items():
+        for key, value in encoder_metadata(checkpoints, mirror_averaged, averaged).items():
             entry = model.metadata_props.add()
             entry.key, entry.value = key, value
         onnx.checker.check_model(model, full_check=True)
@@ -214,7 +214,7 @@ def export_encoder(run_paths: str | list[str], out_path: str, opset: int = 18, m
             tmp.unlink()
     return {"out": str(out), "max_abs_diff": parity, "input_size": [height, width], "mirror_averaged": mirror_averaged,
             "input_filter": [input_filter(c) for c in checkpoints],
-            "averaged_runs": len(checkpoints), "averaged": average if len(checkpoints) > 1 else "none",
+            "averaged_runs": len(checkpoints), "averaged": averaged,
             "params": checkpoints[0]["spec"]["modelled"]}
 
 
