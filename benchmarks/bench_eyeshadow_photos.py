@@ -17,7 +17,7 @@ found: every portrait of benchmarks/photos and every held-out face of data/faces
     (shimmer, metallic, sparkle).
 speed: Fast and the panel's preview on a 1 MP portrait.
 (b) made_up: real made-up eyes (benchmarks/photos/made_up_lids.json, each lid's shadow outlined by hand): each quality's
-    estimate worn on the lid as Better and Best see it (the photo's light, the bare lid from the skin beside it) against
+    estimate worn on the lid as Better and Best see it (the photo's light, the bare lid guessed from the cheek) against
     the photo's mean colour inside the outline, beside no product and the mean preset.
 (c) moves: the first --move-faces faces' looks of 4 products re-lit (two white balances, +-0.7 EV), tilted (-45..45
     degrees) and stored in the seven other EXIF orientations; CIEDE2000 of each estimate's apparent colour to the one of
@@ -247,8 +247,9 @@ def roundtrip(models: dict[str, Path], worn: list, renders: Renders, qualities: 
 def lid_colours(photo: np.ndarray, found, hand: np.ndarray,
                 looks: dict[str, dict[str, float]]) -> dict[str, np.ndarray]:
     """The mean display colour (3,) inside a hand-drawn lid polygon `hand` (K, 2 photo px) of the photo, and of each
-    look worn on this lid as Better and Best see it (the photo's light, the bare lid from the skin beside it:
-    PhotoLayer.bare; blender_addon.matching.photo_scene_fit), 64 px, TRYON_SAMPLES spp: {"photo" | look: colour}."""
+    look worn on this lid as Better and Best see it (the photo's light, the bare lid guessed from the cheek below
+    it: PhotoLayer.skin and .bare; blender_addon.matching.photo_scene_fit), 64 px, TRYON_SAMPLES spp: {"photo" | look:
+    colour}."""
     from blender_addon.matching.photo_scene_fit import bare_guess, scene_target
     from blender_addon.renderers.scene_photo import set_bare
     from blender_addon.renderers.tryon import render_look, render_size, set_photo_region

@@ -1,7 +1,7 @@
 """How far each face's bare lid is from the guess Better and Best put under the layer (PhotoLayer.bare of the eye
-shadow: the skin beside the lid times BARE_LID_RATIO, times LID_CORE_MEDIAN): per lid found, the lid core's median
-(linear) over the guess, and over a split's faces the median and the robust spread (interquartile range / 1.35) of its
-log, per channel. The spread is product_eyeshadow.BARE_LID_SPREAD.
+shadow: the cheek below the lid, PhotoLayer.skin, times BARE_LID_RATIO, times LID_CORE_MEDIAN): per lid found, the lid
+core's median (linear) over the guess, and over a split's faces the median and the robust spread (interquartile range
+/ 1.35) of its log, per channel. The spread is product_eyeshadow.BARE_LID_SPREAD.
 
     PYTHONPATH=. .venv/bin/python scripts/measure_bare_lid.py [--split train] [--every 1]
 """

@@ -121,6 +121,25 @@ def _skin_pixels(rgb: np.ndarray, region: np.ndarray) -> np.ndarray | None:
     return region_pixels(rgb[y0:y1, x0:x1], skin)
 
 
+def skin_below(rgb: np.ndarray, region: np.ndarray) -> np.ndarray | None:
+    """The per-channel median linear RGB (3,) of the skin around the region (skin_around) below its lowest row: under
+    an eye's lid, the cheek, which a fringe of hair or the brows above the lid do not reach. None where fewer than
+    MIN_PIXELS of it are in the image."""
+    from .colour import srgb_to_linear
+
+    found = skin_box(region)
+    if found is None:
+        return None
+    (y0, y1, x0, x1), skin = found
+    lowest = np.flatnonzero((np.nan_to_num(np.asarray(region, np.float32)) > 0.5).any(axis=1)).max()
+    below = skin & (np.arange(y0, y1) > lowest)[:, None]
+    if below.sum() < MIN_PIXELS:
+        return None
+    if np.shape(rgb)[:2] != np.shape(region)[:2]:
+        raise VtoError(f"a region is an (H, W, 3) image and an (H, W) mask, got {np.shape(rgb)} and {np.shape(region)}")
+    return np.median(srgb_to_linear(region_pixels(np.asarray(rgb)[y0:y1, x0:x1], below)), axis=0).astype(np.float64)
+
+
 def skin_light(rgb: np.ndarray, region: np.ndarray) -> tuple[float, np.ndarray] | None:
     """How the skin around the region is lit: (its mean linear luminance, its mean CIELAB (3,)), or None where fewer
     than MIN_PIXELS of it are in the image (a close crop)."""

@@ -1,6 +1,7 @@
 """Better and Best in the photo's own scene (lips; an eye's lid): each candidate rendered onto this photo's region (its
 face mesh, its light, the bare region under the layer: the try-on, blender_addon.renderers.tryon) and compared with the
-photo pixel by pixel. Written for the lips; a lid is read alike, its bare colour the skin's beside it (PhotoLayer.bare).
+photo pixel by pixel. Written for the lips; a lid is read alike, its bare colour guessed from the cheek below it
+(PhotoLayer.skin, .bare).
 
 A made-up photo does not show its bare lips, and with the photo's own lips under the layer no product at all
 (opacity 0) would reproduce the photo. So what lies under the layer is made from the photo: Fast's product divided
@@ -22,7 +23,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from vto_core.appearance import skin_colour
 from vto_core.colour import linear_to_srgb, srgb_to_linear
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
@@ -69,15 +69,16 @@ def scene_target(photo: np.ndarray, found, n: int):
         target = photo_region(clean_photo(photo), to_render(where, region, layer), region, layer, n)
     except VtoError:
         return None
-    if not (target.mask > 0.5).any() or skin_colour(target.frame, target.mask) is None:
+    if not (target.mask > 0.5).any() or target.layer.skin(target.frame, target.mask) is None:
         return None
     return target
 
 
 def bare_guess(target) -> np.ndarray:
     """(3,) linear: what the bare region of `target` (scene_target) is guessed to be, from the skin beside it
-    (its layer's PhotoLayer.bare), guessed in the light's own white so that the light's colour does not move it."""
-    return target.layer.bare(skin_colour(target.frame, target.mask) / target.cast) * target.cast
+    (its layer's PhotoLayer.skin and .bare), guessed in the light's own white so that the light's colour does not move
+    it."""
+    return target.layer.bare(target.layer.skin(target.frame, target.mask) / target.cast) * target.cast
 
 
 def lips_core(mask: np.ndarray) -> np.ndarray:

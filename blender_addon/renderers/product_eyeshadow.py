@@ -6,6 +6,7 @@ import functools
 
 import numpy as np
 
+from vto_core.appearance import skin_below
 from vto_core.errors import VtoError
 from vto_core.products import EYESHADOW
 
@@ -14,18 +15,19 @@ from .products import BoundSource, ProductRenderer
 # Default-scene seeds the photo fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up.
 EYE_POOL = tuple(range(900001, 900025))
 DARK_SHADOW = 60.0  # max(R, G, B) below this (of 255) is a very dark shade (the smoky blacks)
-# The bare lid over the skin around it (vto_core.appearance.skin_colour of the 64 px lid frame, which holds the brow
-# bone, the temple and the cheek beside the eye), per channel, linear: medians over the 96 training faces of data/faces
-# where the right lid was found (interquartile spread 0.24-0.29: the crease's shadow and the lashes darken a lid); and
-# the median of the lid's core over its mean. What Better and Best put under the layer (photo_scene_fit).
-BARE_LID_RATIO = (0.574, 0.570, 0.546)
+# The bare lid over the skin below it (vto_core.appearance.skin_below of the 64 px lid frame: the per-channel median of
+# the cheek under the eye, which a fringe of hair or the brows over the lid do not reach), per channel, linear: medians
+# over the 190 lids found on the 98 training faces of data/faces; and the median of the lid's core over its mean. What
+# Better and Best put under the layer (photo_scene_fit). Reproduce: scripts/measure_bare_lid.py.
+BARE_LID_RATIO = (0.588, 0.585, 0.592)
 LID_CORE_MEDIAN = (1.013, 0.994, 0.984)
 # How far a face's bare lid is from that guess: the robust standard deviation (interquartile range / 1.35) of the log of
-# the lid core's median over the guess (times LID_CORE_MEDIAN), on the 190 lids found on the 98 training faces of
-# data/faces (0.41, 0.47, 0.51 for R, G, B; the 5 % and 95 % points are 0.32 and 1.54 times the guess: lids are
-# shadowed, oily, or lit from above). Too wide to trust, so Better and Best fit the bare lid's level beside the shade,
-# which the lid's top shows where the shade's band leaves it.
-BARE_LID_SPREAD = 0.47
+# the lid core's median over the guess (times LID_CORE_MEDIAN), on those 190 lids (0.38, 0.45, 0.47 for R, G, B; the 5 %
+# and 95 % points are 0.39 and 1.61 times the guess: lids are shadowed, oily, or lit from above). The skin all around
+# the lid (its mean, the brow bone and temple too) read 0.41, 0.47, 0.51 here, and 0.31, 0.37, 0.42 on the held-out
+# faces against the cheek's 0.28, 0.26, 0.30: a fringe over the brow darkened it. Too wide to trust still, so Better and
+# Best fit the bare lid's level beside the shade, which the lid's top shows where the shade's band leaves it.
+BARE_LID_SPREAD = 0.45
 # px across a lid (along the face): narrower lids are too small to render onto. The astronaut's, in a 512 px portrait,
 # are 30; the 18 portraits' 29-141.
 MIN_LID_WIDTH = 24
@@ -76,7 +78,7 @@ class EyeShadowRenderer(ProductRenderer):
 
         return PhotoLayer("Eyelid", "eyeshadow", GROUP_NAME, eyeshadow_material, "Bare Lid", lid_mesh, MIN_LID_WIDTH,
                           attributes, bare=lambda skin: np.asarray(skin, np.float64) * BARE_LID_RATIO,
-                          core_median=LID_CORE_MEDIAN, bare_spread=BARE_LID_SPREAD)
+                          skin=skin_below, core_median=LID_CORE_MEDIAN, bare_spread=BARE_LID_SPREAD)
 
     def nodes(self, material):
         from .eyeshadow import material_nodes

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from vto_core.appearance import skin_colour
+
 from ..compat import enable_nodes
 
 CAMERA_HEIGHT = 1000.0  # frame px above the region: far beyond its depth
@@ -37,6 +39,9 @@ class PhotoLayer:
     min_width: float  # px across the region (face_regions.region_width) under which it is too small to render onto
     attributes: Callable | None = None  # uvs (V, 2) -> {name: (V,) float32}: the point attributes its group reads
     bare: Callable | None = None  # the skin beside it (3,) linear, in the light's white -> the bare region's (3,)
+    # How that skin is read: (the frame (n, n, 3) display, the region's mask (n, n)) -> (3,) linear, or None where
+    # too little of it is in the frame.
+    skin: Callable[[np.ndarray, np.ndarray], np.ndarray | None] = skin_colour
     core_median: tuple[float, float, float] = (1.0, 1.0, 1.0)  # its core's median over its mean, linear, bare
     # The spread (standard deviation of the log) of the true bare region's level about `bare`'s guess; above 0, Better
     # and Best fit that level beside the product (blender_addon.matching.photo_scene_fit), where the photo shows it.

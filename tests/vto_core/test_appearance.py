@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from vto_core.appearance import MEAN_WEIGHT, body_colour, mean_colour, region_statistics, skin_colour
+from vto_core.appearance import MEAN_WEIGHT, body_colour, mean_colour, region_statistics, skin_below, skin_colour
 from vto_core.colour import srgb_to_lab, srgb_to_linear
 from vto_core.errors import VtoError
 
@@ -62,6 +62,24 @@ def test_the_skin_colour_is_the_linear_mean_beside_the_lips_and_none_without_ski
     assert skin_colour(rgb, np.ones((40, 40))) is None  # lips fill the picture: a close crop shows no skin
     assert skin_colour(rgb, np.zeros((40, 40))) is None
     assert np.isfinite(skin_colour(np.full((40, 40, 3), np.nan), lips)).all()
+
+
+def test_the_skin_below_a_lid_is_the_cheeks_median_whatever_hair_lies_above_it():
+    """skin_below: a fringe of dark hair over the brow and a few dark lashes below the lid pull skin_colour's mean
+    down; the cheek's per-channel median stays the cheek's. None where the lid reaches the frame's bottom."""
+    rgb = np.full((40, 40, 3), (0.9, 0.6, 0.5), np.float32)
+    lid = np.zeros((40, 40), np.float32)
+    lid[14:20, 10:30] = 1.0
+    rgb[:12] = (0.1, 0.08, 0.06)  # hair above the lid
+    rgb[23, 10:14] = (0.0, 0.0, 0.0)  # lashes below it: 4 of the cheek's pixels
+    cheek = srgb_to_linear(np.array([0.9, 0.6, 0.5]))
+    np.testing.assert_allclose(skin_below(rgb, lid), cheek, rtol=1e-5)
+    assert (skin_colour(rgb, lid) < 0.8 * cheek).all()
+    low = np.zeros((40, 40), np.float32)
+    low[34:40, 10:30] = 1.0
+    assert skin_below(rgb, low) is None and skin_below(rgb, np.zeros((40, 40))) is None
+    for frame in (np.full((40, 40, 3), np.nan), np.full((40, 40, 3), 40.0), np.zeros((40, 40, 3))):
+        assert np.isfinite(skin_below(frame, lid)).all()
 
 
 def test_the_skin_around_the_lips_is_read_in_its_own_box_as_the_whole_image_definition_gives_it():

@@ -145,8 +145,8 @@ def test_constant_black_and_hdr_frames_give_finite_layers(frame):
 def test_better_reads_an_eye_shadow_back_from_a_wrong_start_on_the_right_lid():
     """Royal Purple tried on a training face's lids: Better, in the photo's own scene on the right eye's lid, from a
     start 40 levels off in each channel, ends nearer the product's colour, with exactly its renders. (Less near than
-    for lips: this face's bare lid is 0.39 of the skin around it, where BARE_LID_RATIO, the training faces' median,
-    predicts 0.57; the fit puts too light a lid under the layer.)"""
+    for lips: this face's right lid is 0.63, 0.58, 0.57 of the guess from the skin below it, BARE_LID_RATIO being the
+    training faces' median (scripts/measure_bare_lid.py); the fit puts too light a lid under the layer.)"""
     from blender_addon.renderers.tryon import find_regions, tryon_product
     from vto_core.products import EYESHADOW
 
