@@ -108,13 +108,18 @@ def skin_colour(rgb: np.ndarray, region: np.ndarray) -> np.ndarray | None:
     return None if pixels is None else srgb_to_linear(pixels).mean(axis=0, dtype=np.float64)
 
 
-def _skin_pixels(rgb: np.ndarray, region: np.ndarray) -> np.ndarray | None:
-    """region_pixels of the skin around the region (skin_around), read inside the skin's box only; None where fewer
-    than MIN_PIXELS of it are in the image."""
+def _skin_pixels(rgb: np.ndarray, region: np.ndarray, below: bool = False) -> np.ndarray | None:
+    """region_pixels of the skin around the region (skin_around; `below`: only its rows below the region's lowest),
+    read inside the skin's box only; None where fewer than MIN_PIXELS of it are in the image."""
     found = skin_box(region)
-    if found is None or found[1].sum() < MIN_PIXELS:
+    if found is None:
         return None
     (y0, y1, x0, x1), skin = found
+    if below:
+        lowest = np.flatnonzero((np.nan_to_num(np.asarray(region, np.float32)) > 0.5).any(axis=1)).max()
+        skin = skin & (np.arange(y0, y1) > lowest)[:, None]
+    if skin.sum() < MIN_PIXELS:
+        return None
     rgb = np.asarray(rgb)
     if rgb.shape[:2] != np.shape(region)[:2]:
         raise VtoError(f"a region is an (H, W, 3) image and an (H, W) mask, got {rgb.shape} and {np.shape(region)}")
@@ -127,17 +132,8 @@ def skin_below(rgb: np.ndarray, region: np.ndarray) -> np.ndarray | None:
     MIN_PIXELS of it are in the image."""
     from .colour import srgb_to_linear
 
-    found = skin_box(region)
-    if found is None:
-        return None
-    (y0, y1, x0, x1), skin = found
-    lowest = np.flatnonzero((np.nan_to_num(np.asarray(region, np.float32)) > 0.5).any(axis=1)).max()
-    below = skin & (np.arange(y0, y1) > lowest)[:, None]
-    if below.sum() < MIN_PIXELS:
-        return None
-    if np.shape(rgb)[:2] != np.shape(region)[:2]:
-        raise VtoError(f"a region is an (H, W, 3) image and an (H, W) mask, got {np.shape(rgb)} and {np.shape(region)}")
-    return np.median(srgb_to_linear(region_pixels(np.asarray(rgb)[y0:y1, x0:x1], below)), axis=0).astype(np.float64)
+    pixels = _skin_pixels(rgb, region, below=True)
+    return None if pixels is None else np.median(srgb_to_linear(pixels), axis=0).astype(np.float64)
 
 
 def skin_light(rgb: np.ndarray, region: np.ndarray) -> tuple[float, np.ndarray] | None:
