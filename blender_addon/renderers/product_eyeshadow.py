@@ -24,7 +24,7 @@ LID_CORE_MEDIAN = (1.013, 0.994, 0.984)
 # How far a face's bare lid is from that guess: the robust standard deviation (interquartile range / 1.35) of the log of
 # the lid core's median over the guess (times LID_CORE_MEDIAN), on those 190 lids (0.38, 0.45, 0.47 for R, G, B; the 5 %
 # and 95 % points are 0.37 and 1.54 times the guess: lids are shadowed, oily, or lit from above). The skin all around
-# the lid (its mean, the brow bone and temple too) read 0.41, 0.47, 0.51 here, and 0.31, 0.37, 0.42 on the held-out
+# the lid (its mean, the brow bone and temple too) read 0.40, 0.48, 0.50 here, and 0.31, 0.37, 0.42 on the held-out
 # faces against the cheek's 0.28, 0.26, 0.30: a fringe over the brow darkened it. Too wide to trust still, so Better and
 # Best fit the bare lid's level beside the shade, which the lid's top shows where the shade's band leaves it.
 BARE_LID_SPREAD = 0.45
