@@ -170,11 +170,13 @@ class ParamSampler:
     """Deterministic sampler: sample i is a pure function of (seed, i)."""
 
     def __init__(self, spec: RendererSpec, unit_presets: np.ndarray | None, uniform_ratio: float = 0.5, seed: int = 0,
-                 kernel: float = 0.0, uniform_lightness: bool = False):
+                 kernel: float = 0.0, uniform_lightness: bool = False, uniform_params: tuple[str, ...] = ()):
         """kernel: 0 draws the non-uniform share from one normal fitted on the presets (the paper's); above 0, from
         PresetKernels of that width (unit range). uniform_lightness: each uniform draw's colour is moved to a CIELAB
         lightness drawn uniformly in [0, 100] (at_lightness), so dark and light products are as common as middling
-        ones (the RGB cube puts 3 % of its colours below L* 20)."""
+        ones (the RGB cube puts 3 % of its colours below L* 20). uniform_params: when given, a uniform draw spreads
+        only these parameters and takes the others from a preset draw (a colour drawn anywhere, worn with a finish
+        products have: an even finish puts a matte's sheen at 0.5)."""
         if not 0.0 <= uniform_ratio <= 1.0:
             raise VtoError(f"uniform_ratio must be in [0, 1], got {uniform_ratio}")
         if not 0.0 <= kernel <= 0.5:
@@ -188,11 +190,21 @@ class ParamSampler:
         self.uniform_ratio = float(uniform_ratio)
         self.normal = None
         self.colour = None  # positions of COLOUR in spec.modelled where uniform_lightness moves them
+        self.from_presets = None  # positions a uniform draw takes from a preset draw (uniform_params)
         if uniform_lightness:
             if not set(COLOUR) <= set(spec.modelled):
                 raise VtoError(f"uniform lightness moves a modelled colour ({', '.join(COLOUR)}); {spec.renderer} "
                                f"models {', '.join(spec.modelled)}")
             self.colour = [spec.modelled.index(name) for name in COLOUR]
+        if uniform_params:
+            unknown = sorted(set(uniform_params) - set(spec.modelled))
+            if unknown:
+                raise VtoError(f"uniform parameters must be modelled: {', '.join(unknown)} is not among "
+                               f"{', '.join(spec.modelled)}")
+            if not 0.0 < uniform_ratio < 1.0:
+                raise VtoError("uniform parameters mix uniform and preset draws: uniform_ratio must be in (0, 1), "
+                               f"got {uniform_ratio}")
+            self.from_presets = [i for i, name in enumerate(spec.modelled) if name not in uniform_params]
         if uniform_ratio < 1.0:
             wraps = np.array([p.wraps for p in spec.modelled_params])
             self.normal = (PresetKernels(np.asarray(unit_presets, np.float64), kernel, wraps) if kernel > 0
@@ -212,6 +224,8 @@ class ParamSampler:
                 raw = self.spec.denormalise(unit)
                 raw[self.colour] = 255.0 * at_lightness(raw[self.colour] / 255.0, 100.0 * rng.random())
                 unit[self.colour] = self.spec.normalise(raw)[self.colour]
+            if self.from_presets is not None:
+                unit[self.from_presets] = self.normal.draw(rng)[self.from_presets]
             return unit
         return self.normal.draw(rng)
 

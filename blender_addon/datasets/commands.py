@@ -71,6 +71,9 @@ def cmd_dataset(argv: list[str]) -> int:
                         help="each uniform draw's colour moved to a lightness drawn evenly over CIELAB L* 0-100, its "
                              "hue kept: dark and light products as common as middling ones (the RGB cube puts 3 %% "
                              "of its colours below L* 20)")
+    parser.add_argument("--uniform-params", default="",
+                        help="comma-separated parameters the uniform draws spread (default: all); the others come "
+                             "from a preset draw, so a colour drawn anywhere is worn with a finish products have")
     parser.add_argument("--source-folder", default=None, help="hair: photos with <name>_mask beside them")
     parser.add_argument("--looks-per-source", type=int, default=1,
                         help="hair, default scene: this many consecutive looks share one source render (the stage "
@@ -119,7 +122,7 @@ def cmd_dataset(argv: list[str]) -> int:
                      args.uniform_ratio, args.source_folder, scene, args.lighting, not args.no_source,
                      tuple(name for name in args.vary.split(",") if name), args.looks_per_source, args.masks,
                      args.photos, args.preset_kernel, tuple(name for name in args.without_presets.split(",") if name),
-                     args.uniform_lightness)
+                     args.uniform_lightness, tuple(name for name in args.uniform_params.split(",") if name))
     indices = shard_range(job.n, shard)
     if args.worker is not None:  # one of run_workers' processes: its share of the shard, then exit
         run_in_process(job, worker_indices(indices, parse_shard(args.worker)), args.limit, quiet=True,

@@ -57,6 +57,7 @@ class DatasetJob:
     preset_kernel: float = 0.0  # > 0: draw about each preset (sampling.PresetKernels) instead of one normal on them
     without_presets: tuple[str, ...] = ()  # presets the sampler leaves out (a benchmark's products, kept unseen)
     uniform_lightness: bool = False  # the uniform draws' colours spread evenly over CIELAB lightness (sampling)
+    uniform_params: tuple[str, ...] = ()  # the only parameters a uniform draw spreads; the rest from a preset draw
     spec: RendererSpec = field(init=False)
 
     @property
@@ -90,6 +91,13 @@ class DatasetJob:
         if self.uniform_lightness and not set(COLOUR) <= set(self.spec.modelled):
             raise VtoError(f"--uniform-lightness moves the colour ({', '.join(COLOUR)}): model all three, got "
                            f"{', '.join(self.spec.modelled)}")
+        self.uniform_params = tuple(self.uniform_params)
+        unknown = sorted(set(self.uniform_params) - set(self.spec.modelled))
+        if unknown:
+            raise VtoError(f"--uniform-params: {', '.join(unknown)} is not modelled ({', '.join(self.spec.modelled)})")
+        if self.uniform_params and not 0.0 < self.uniform_ratio < 1.0:
+            raise VtoError(f"--uniform-params mixes uniform and preset draws: --uniform-ratio must be in (0, 1), got "
+                           f"{self.uniform_ratio}")
         if not 0.0 <= self.preset_kernel <= 0.5:
             raise VtoError(f"--preset-kernel must be in [0, 0.5], got {self.preset_kernel}")
         self.without_presets = tuple(self.without_presets)
@@ -152,6 +160,10 @@ class DatasetJob:
             del settings["without_presets"]
         if not self.uniform_lightness:  # likewise
             del settings["uniform_lightness"]
+        if self.uniform_params:  # likewise
+            settings["uniform_params"] = list(self.uniform_params)
+        else:
+            del settings["uniform_params"]
         del settings["photos"]
         if self.photos is not None:  # the faces themselves, by name and content: a folder's path says little
             from vto_core.dataset import file_digest
@@ -201,7 +213,7 @@ class SampleRenderer:
         self.job = job
         spec = job.spec
         self.sampler = ParamSampler(spec, preset_matrix(spec, job.sampled_presets), job.uniform_ratio, job.seed,
-                                    job.preset_kernel, job.uniform_lightness)
+                                    job.preset_kernel, job.uniform_lightness, job.uniform_params)
         self.photos = None
         self.user_scene = None
         self.photo_looks = None

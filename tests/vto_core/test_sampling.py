@@ -107,6 +107,11 @@ def test_bad_arguments():
         ParamSampler(spec, None, 1.0, kernel=-0.1)
     with pytest.raises(VtoError, match="uniform lightness moves a modelled colour"):
         ParamSampler(get_spec("lipstick", "opacity,red,gloss"), None, 1.0, uniform_lightness=True)
+    presets = preset_matrix(get_spec("lipstick"), load_presets("lipstick"))
+    with pytest.raises(VtoError, match="shimmer is not among"):
+        ParamSampler(get_spec("lipstick"), presets, 0.5, uniform_params=("red", "shimmer"))
+    with pytest.raises(VtoError, match=r"uniform_ratio must be in \(0, 1\)"):
+        ParamSampler(get_spec("lipstick"), presets, 0.0, uniform_params=("red",))
 
 
 def test_preset_kernels_keep_the_presets_dark_end_where_one_normal_moves_it_to_the_middle():
@@ -148,6 +153,28 @@ def test_uniform_lightness_spreads_the_colours_evenly_over_lightness_and_leaves_
     mixed, normal = (ParamSampler(spec, presets, 0.5, 5, uniform_lightness=flag) for flag in (True, False))
     same = [np.array_equal(mixed.sample_unit(i), normal.sample_unit(i)) for i in range(200)]
     assert 60 < sum(same) < 140  # the normal's half is the same draws; the uniform half moved
+
+
+def test_uniform_params_spread_the_colour_and_take_the_finish_from_a_preset_draw():
+    """Eye shadow, uniform_params = opacity and colour: the uniform half's colours are the draws they were without
+    it, and its finish comes from the presets' kernels, so the mattes' zero sheen is as common there as among the
+    presets (an even draw puts 5 % of the shimmers below 0.05); the preset half is untouched."""
+    spec = get_spec("eyeshadow")
+    presets = preset_matrix(spec, load_presets("eyeshadow"))
+    spread = [spec.modelled.index(name) for name in ("opacity", "red", "green", "blue")]
+    shimmer = spec.modelled.index("shimmer")
+    finish, every = (ParamSampler(spec, presets, 1.0 - 1e-9, 5, kernel=0.01, uniform_params=chosen)
+                     for chosen in (("opacity", "red", "green", "blue"), ()))
+    drawn, plain = (np.array([s.sample_unit(i) for i in range(1000)]) for s in (finish, every))
+    assert ((0.0 <= drawn) & (drawn <= 1.0)).all()
+    assert np.array_equal(drawn[:, spread], plain[:, spread])
+    matte_share = float(np.mean(presets[:, shimmer] == 0.0))
+    assert abs(np.mean(drawn[:, shimmer] < 0.05) - matte_share) < 0.06
+    assert np.mean(plain[:, shimmer] < 0.05) < 0.08
+    mixed, normal = (ParamSampler(spec, presets, 0.5, 5, kernel=0.12, uniform_params=chosen)
+                     for chosen in (("opacity", "red", "green", "blue"), ()))
+    same = [np.array_equal(mixed.sample_unit(i), normal.sample_unit(i)) for i in range(200)]
+    assert 60 < sum(same) < 140  # the kernels' half is the same draws; the uniform half's finish moved
 
 
 @pytest.mark.parametrize("rgb", [(0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (0.9, 0.1, 0.2), (0.2, 0.5, 0.9)])

@@ -180,6 +180,8 @@ def test_two_workers_make_the_same_files(tmp_path):
     (["--n", "4", "--preset-kernel", "0.7"], "--preset-kernel must be in [0, 0.5]"),
     (["--n", "4", "--without-presets", "Classic Red,No Such Shade"], "no lipstick preset named No Such Shade"),
     (["--n", "4", "--params", "red,gloss", "--uniform-lightness"], "--uniform-lightness moves the colour"),
+    (["--n", "4", "--params", "red,gloss", "--uniform-params", "red,shimmer"], "--uniform-params: shimmer is not"),
+    (["--n", "4", "--uniform-params", "red", "--uniform-ratio", "1"], "--uniform-params mixes uniform and preset"),
 ])
 def test_bad_arguments_are_clear_errors_and_write_nothing(tmp_path, capsys, argv, message):
     out = tmp_path / "bad"
@@ -304,6 +306,24 @@ def test_uniform_lightness_is_recorded_and_moves_only_the_uniform_colours(tmp_pa
                 for r in (plain, even))
         assert any(abs(a[c] - b[c]) > 1.0 for c in ("red", "green", "blue"))
         assert all(a[k] == b[k] for k in a if k not in ("red", "green", "blue"))
+
+
+def test_uniform_params_are_recorded_and_leave_the_spread_parameters_as_they_were(tmp_path):
+    """--uniform-params red, nearly all draws uniform: each look's red is a plain run's, its gloss a preset draw's;
+    the manifest records the parameters (a dataset without them keeps the manifest it had)."""
+    from vto_core.presets import load_presets
+
+    settings = ["--uniform-ratio", "0.999999", "--preset-kernel", "0.01"]
+    make(tmp_path / "plain", 3, *settings)
+    make(tmp_path / "red", 3, *settings, "--uniform-params", "red")
+    plain, red = DatasetReader(tmp_path / "plain"), DatasetReader(tmp_path / "red")
+    assert "uniform_params" not in plain.manifest and red.manifest["uniform_params"] == ["red"]
+    glosses = {round(values["gloss"], 2) for values in load_presets("lipstick").values()}
+    for i in range(3):
+        a, b = (json.loads((r.root / "samples" / f"{i:07d}" / "params.json").read_text())["values"]
+                for r in (plain, red))
+        assert a["red"] == b["red"] and a["gloss"] != b["gloss"]
+        assert min(abs(b["gloss"] - g) for g in glosses) < 0.05
 
 
 def test_vary_draws_an_unmodelled_input_per_look_and_keeps_the_sampled_ones(tmp_path):
