@@ -10,7 +10,7 @@ from vto_core.appearance import skin_below
 from vto_core.errors import VtoError
 from vto_core.products import EYESHADOW
 
-from .products import BoundSource, ProductRenderer
+from .products import BoundSource, ProductRenderer, shifted_colour
 
 # Default-scene seeds the photo fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up.
 EYE_POOL = tuple(range(900001, 900025))
@@ -106,6 +106,18 @@ class EyeShadowRenderer(ProductRenderer):
     def missing_group(self, material):
         return (f"material '{material.name}' does not use the 'VTO Eye Shadow' node group (add one with Add VTO Eye "
                 "Shadow Material, or put one between the lid's shader and the Material Output)")
+
+    # The bare lid's tone: the skin's times scene_eyes.LID_TONE times a factor drawn in 0.95-1.05.
+    bare_tone_step = 0.02
+    bare_tone_prior = 0.1**2 / 12
+
+    def bare_tone(self, offset):
+        import bpy
+
+        from .scene_eyes import LID_MATERIAL
+
+        socket = bpy.data.materials[LID_MATERIAL].node_tree.nodes["Lid Or Skin"].inputs[6]  # the lid's own tone
+        return shifted_colour(socket, lambda tone: np.clip(tone * (1.0 + offset), 0.0, 1.0))
 
     def is_dark(self, values):
         return max(values["red"], values["green"], values["blue"]) < DARK_SHADOW

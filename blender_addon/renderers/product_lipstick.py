@@ -9,7 +9,7 @@ import numpy as np
 from vto_core.errors import VtoError
 from vto_core.products import LIPSTICK
 
-from .products import BoundSource, ProductRenderer
+from .products import BoundSource, ProductRenderer, shifted_colour
 
 # Default-scene seeds the photo fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up; the fit
 # takes those whose skin is most like the photo's.
@@ -140,6 +140,18 @@ class LipstickRenderer(ProductRenderer):
         return PhotoLayer("Lips", "lipstick", GROUP_NAME, lipstick_material, "Bare Lips",
                           lambda points, depth, region: lips_mesh(points, depth), MIN_LIPS_WIDTH, bare=bare_lips,
                           core_median=CORE_MEDIAN)
+
+    # The bare lips' tone: the skin's shifted by scene_lips.LIP_TONE_SHIFT times a factor drawn in LIP_SHIFT_RANGE.
+    bare_tone_step = 0.1
+    bare_tone_prior = 0.7**2 / 12
+
+    def bare_tone(self, offset):
+        import bpy
+
+        from .scene_lips import LIP_TONE_SHIFT, LIPS_MATERIAL
+
+        socket = bpy.data.materials[LIPS_MATERIAL].node_tree.nodes["Bare Lips"].inputs["Base Color"]
+        return shifted_colour(socket, lambda tone: np.clip(tone + offset * np.array(LIP_TONE_SHIFT), 0.02, 1.0))
 
     def is_dark(self, values):
         return max(values["red"], values["green"], values["blue"]) < DARK_LIPSTICK

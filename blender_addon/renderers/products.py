@@ -3,6 +3,7 @@ declaration (vto_core.products): code above the renderers asks it, never the pro
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
 
 import numpy as np
@@ -108,6 +109,17 @@ class ProductRenderer:
 
         return tryon_product(self.product, photo, values, crop=crop, samples=samples, seed=seed, in_place=True)
 
+    # The default scene's bare region (the lips, the lid) has one tone freedom across sources besides the skin's: a
+    # factor drawn per source, which bare_tone moves. Its finite-difference step and its variance across sources; a
+    # prior of 0: the product's scene has none (the render floor's reader of it is left out).
+    bare_tone_step: float = 0.0
+    bare_tone_prior: float = 0.0
+
+    def bare_tone(self, offset: float):
+        """A context: renders inside show the default scene's bare region `offset` further along its tone factor; the
+        source must already be applied (a render on it), and its tone comes back after."""
+        raise NotImplementedError
+
     def is_dark(self, values: dict[str, float]) -> bool:
         """A very dark product (the evaluation's 'dark' bucket)."""
         return False
@@ -118,6 +130,19 @@ class ProductRenderer:
         options: the DatasetJob's 'lighting', 'scene' (a user scene), 'source_images', 'masks', 'photos' (hair
         sources), 'cache' (a folder where looks sharing a source keep its render, or None)."""
         raise NotImplementedError
+
+
+@contextlib.contextmanager
+def shifted_colour(socket, shift: Callable[[np.ndarray], np.ndarray]):
+    """A colour socket's sRGB (3,) moved by `shift` (sRGB (3,) -> sRGB (3,)) inside the block, put back after."""
+    from vto_core.colour import linear_to_srgb, srgb_to_linear
+
+    kept = tuple(socket.default_value)
+    socket.default_value = (*srgb_to_linear(shift(linear_to_srgb(np.array(kept[:3])))), kept[3])
+    try:
+        yield
+    finally:
+        socket.default_value = kept
 
 
 class BoundSource:

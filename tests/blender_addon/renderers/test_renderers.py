@@ -11,7 +11,7 @@ import pytest
 pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
-from blender_addon.renderers.products import render  # noqa: E402
+from blender_addon.renderers.products import blender_side, render  # noqa: E402
 from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
 from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
 from blender_addon.renderers.node_utils import interface_names  # noqa: E402
@@ -20,7 +20,7 @@ from blender_addon.renderers.nodes_lipstick import lipstick_group  # noqa: E402
 from vto_core import cli  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402
 from vto_core.imageio import read_image  # noqa: E402
-from vto_core.products import get_spec  # noqa: E402
+from vto_core.products import get_spec, product_names  # noqa: E402
 
 RES, SAMPLES, BLOCK = 64, 8, 8
 LIPSTICK_BASE = {"opacity": 1.0, "sparkle_density": 0.5}  # makeup on, flakes present, so every input shows
@@ -274,3 +274,19 @@ def test_tones_replace_a_lips_sources_skin_and_lips_and_leave_its_light_and_shap
     assert ciede2000(toned_skin, srgb_to_lab(pale)) < ciede2000(own_skin, srgb_to_lab(pale))
     np.testing.assert_array_equal(render_lipstick(bare, source, 32, 8, 0), own)  # its own tones again
     np.testing.assert_array_equal(own, render_lipstick(bare, source, 32, 8, 0, tones=(skin, lips)))
+
+
+@pytest.mark.parametrize("name", [n for n in product_names() if blender_side(n).bare_tone_prior > 0])
+def test_bare_tone_moves_the_bare_region_alone_and_puts_it_back(name):
+    renderer = blender_side(name)
+    bound = renderer.bind(1, 32, 4, 0)
+    bare = bound.render({"opacity": 0.0})
+    mask = bound.mask
+    with renderer.bare_tone(0.5):  # far past a source's own draw, so the change stands far above float noise
+        moved = bound.render({"opacity": 0.0})
+    again = bound.render({"opacity": 0.0})
+    region = np.abs(moved - bare)[mask].mean()
+    outside = np.abs(moved - bare)[~mask].mean()
+    assert region > 0.01, f"{name}: the bare region moved {region:.4f}"
+    assert region > 5 * outside, f"{name}: the rest moved {outside:.4f} against the region's {region:.4f}"
+    np.testing.assert_array_equal(again, bare)
