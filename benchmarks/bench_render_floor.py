@@ -4,13 +4,16 @@ For N fresh looks (drawn as `vto eval` draws them), on each of K Cycles seeds: t
 in each modelled parameter, as means of the region's blocks (the lips, the lid). One half of the seeds' differences
 against the other's gives the render's information (vto_core.visibility.render_information: a changed parameter also
 changes the noise, which must not count as signal), and with the sampler's spread as prior the posterior spread of
-each parameter (vto_core.visibility.parameter_floor). Three readers: one that knows the scene (source, light, camera);
-one that must also allow for the camera's residual exposure and white-balance error without metering the skin; and
-one that does not know the bare region's own tone either (its one freedom across sources besides the skin's, where
-the product's scene has one: ProductRenderer.bare_tone). From those spreads: the median colour error (8-bit steps, R,
+each parameter (vto_core.visibility.parameter_floor). Four readers, each told less than the one before: one that
+knows the scene (source, light, camera); one that must also allow for the camera's residual exposure and
+white-balance error without metering the skin; one that does not know the bare region's own tone either (its one
+freedom across sources besides the skin's, where the product's scene has one: ProductRenderer.bare_tone); and one
+that does not know the light's direction (its turn about three axes) or its fill either, each with the spread a
+source draws it with (lighting.turned_light; the map itself, the skin tone and the shape stay known). From those spreads: the median colour error (8-bit steps, R,
 G and B pooled) on the looks with opacity >= 0.5 and the mean absolute error of every other modelled parameter (unit
 range) that such an ideal reader would make, at each resolution and sample count asked for. Noise is taken as
-independent between blocks, and the source is known (vto eval hides it), so the floor is optimistic. On the 64 px,
+independent between blocks, the light is linearised about its draw, and the rest of the source is known
+(vto eval hides it), so the floor is optimistic. On the 64 px,
 default-sample renders the shipped encoder reads the same references (the last row). Writes the section
 'render-floor-<product>' of benchmarks/results/colour_floor.md.
 
@@ -33,7 +36,18 @@ OPAQUE = 0.5  # colour errors are read on looks at least this opaque, as vto eva
 PRIOR_DRAWS = 20000
 READERS = {"prior": "no render (the sampler's spread)", "known": "knows the scene",
            "camera": "+ the camera's residual exposure and white balance unknown",
-           "tone": "+ the bare region's tone unknown"}
+           "tone": "+ the bare region's tone unknown",
+           "light": "+ the light's direction and fill unknown"}
+LIGHT_STEP = 0.05  # radians of turn, and of log fill, of the light's central differences
+
+
+def light_prior() -> np.ndarray:
+    """(4, 4) covariance of a source's light about its draw (vto_core.portrait_light): its turn about the camera's x
+    and y axes (the key anywhere in a cap of KEY_CONE radians) and about z (any roll), and its log fill."""
+    from vto_core.portrait_light import FILL_RANGE, KEY_CONE
+
+    log_fill = np.log(np.random.default_rng(0).uniform(*FILL_RANGE, 100000))
+    return np.diag([KEY_CONE**2 / 4, KEY_CONE**2 / 4, (2 * np.pi) ** 2 / 12, log_fill.var()])
 
 
 def pooled_median_error(stds: np.ndarray, draws: int = 400, seed: int = 0) -> float:
@@ -53,6 +67,8 @@ def measure_look(renderer, sampler, prior: np.ndarray, seed: int, index: int, re
                  seeds: int) -> dict:
     """Renders of one look: derivatives and noise on `seeds` Cycles seeds -> per-parameter spreads for each reader."""
     from blender_addon.datasets.dataset import source_id
+    from blender_addon.renderers.lighting import turned_light
+    from vto_core.portrait_light import axis_angle
     from vto_core.visibility import (camera_jacobian, masked_block_means, noise_variance, parameter_floor,
                                      render_information, seed_differences)
 
@@ -69,6 +85,13 @@ def measure_look(renderer, sampler, prior: np.ndarray, seed: int, index: int, re
         with renderer.bare_tone(float(offset[0])):
             return render(unit, cycles_seed)
 
+    def render_light(offset, cycles_seed):  # offsets about 0.5, so that seed_differences takes central differences
+        x, y, z, fill = np.asarray(offset, np.float64) - 0.5
+        turn = axis_angle(np.array([0.0, 0.0, 1.0]), z) @ axis_angle(np.array([0.0, 1.0, 0.0]), y) @ axis_angle(
+            np.array([1.0, 0.0, 0.0]), x)
+        with turned_light(renderer.default_scene(), turn, float(np.exp(fill))):
+            return render(unit, cycles_seed)
+
     block = max(res // 16, 1)  # the same patch of the region at every resolution
     mask = bound[cycles_seeds[0]].mask
     noisy = np.stack([render(unit, s) for s in cycles_seeds]).astype(np.float64)
@@ -81,6 +104,9 @@ def measure_look(renderer, sampler, prior: np.ndarray, seed: int, index: int, re
         columns.append(masked_block_means(seed_differences(render_tone, np.zeros(1), cycles_seeds,
                                                            renderer.bare_tone_step), mask, block))
         priors.append(np.array([[renderer.bare_tone_prior]]))
+    columns.append(masked_block_means(seed_differences(render_light, np.full(4, 0.5), cycles_seeds, LIGHT_STEP),
+                                      mask, block))
+    priors.append(light_prior())
     # One information matrix for the parameters and every nuisance, so that each reader's floor is a marginal of the
     # same Gaussian: a reader told less can only do worse.
     information = render_information(np.concatenate(columns, axis=1), variance)
@@ -89,7 +115,8 @@ def measure_look(renderer, sampler, prior: np.ndarray, seed: int, index: int, re
     for p, end in zip(priors, sizes):
         full_prior[end - len(p): end, end - len(p): end] = p
     spreads = {"unit": unit, "prior": np.sqrt(np.diag(prior)), "reference": noisy[0].astype(np.float32)}
-    for reader, unknown in zip(("known", "camera", "tone"), sizes):
+    readers = ("known", "camera", "tone", "light") if renderer.bare_tone_prior > 0 else ("known", "camera", "light")
+    for reader, unknown in zip(readers, sizes):
         floor = parameter_floor(information[:unknown, :unknown], full_prior[:unknown, :unknown])
         spreads[reader] = np.sqrt(np.diag(floor)[: sizes[0]])
     return spreads

@@ -11,6 +11,7 @@ less noisy for the same samples.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import os
@@ -163,3 +164,32 @@ def _track(direction: np.ndarray) -> tuple[float, float, float, float]:
     from mathutils import Vector
 
     return tuple(Vector(direction.tolist()).to_track_quat("Z", "Y"))
+
+
+@contextlib.contextmanager
+def turned_light(scene: bpy.types.Scene, turn: np.ndarray, fill: float = 1.0):
+    """Renders inside see `scene`'s light (its map and its suns) turned by `turn` (3, 3; world directions to world
+    directions) and its map's strength times `fill`; put back after. What the render floor moves of a source's light
+    (benchmarks/bench_render_floor.py)."""
+    from mathutils import Euler, Matrix
+
+    nodes = scene.world.node_tree.nodes
+    rotation, strength = nodes["HDRI Rotation"].inputs["Rotation"], nodes["Background"].inputs["Strength"]
+    suns = [scene.objects[f"{SUN_PREFIX}{scene.name} {index}"] for index in range(ENV_LIGHTS)]
+    kept = (tuple(rotation.default_value), strength.default_value,
+            [(sun.rotation_mode, tuple(sun.rotation_quaternion), tuple(sun.rotation_euler)) for sun in suns])
+    # The mapping looks the map up at L d; turned, a world direction d sees what turn^T d saw: L turn^T.
+    lookup = np.array(Euler(kept[0], "XYZ").to_matrix())
+    rotation.default_value = Matrix((lookup @ np.asarray(turn).T).tolist()).to_euler("XYZ")
+    strength.default_value = kept[1] * fill
+    quaternion = Matrix(np.asarray(turn).tolist()).to_quaternion()
+    for sun in suns:
+        sun.rotation_mode = "QUATERNION"
+        sun.rotation_quaternion = quaternion @ sun.rotation_quaternion
+    try:
+        yield
+    finally:
+        rotation.default_value, strength.default_value = kept[0], kept[1]
+        for sun, (mode, turned, euler) in zip(suns, kept[2]):
+            sun.rotation_quaternion, sun.rotation_euler, sun.rotation_mode = turned, euler, mode
+

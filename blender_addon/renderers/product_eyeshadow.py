@@ -107,6 +107,11 @@ class EyeShadowRenderer(ProductRenderer):
         return (f"material '{material.name}' does not use the 'VTO Eye Shadow' node group (add one with Add VTO Eye "
                 "Shadow Material, or put one between the lid's shader and the Material Output)")
 
+    def default_scene(self):
+        from .scene_eyes import build_eye_scene
+
+        return build_eye_scene()
+
     # The bare lid's tone: the skin's times scene_eyes.LID_TONE times a factor drawn in 0.95-1.05.
     bare_tone_step = 0.02
     bare_tone_prior = 0.1**2 / 12

@@ -141,6 +141,11 @@ class LipstickRenderer(ProductRenderer):
                           lambda points, depth, region: lips_mesh(points, depth), MIN_LIPS_WIDTH, bare=bare_lips,
                           core_median=CORE_MEDIAN)
 
+    def default_scene(self):
+        from .scene_lips import build_lips_scene
+
+        return build_lips_scene()
+
     # The bare lips' tone: the skin's shifted by scene_lips.LIP_TONE_SHIFT times a factor drawn in LIP_SHIFT_RANGE.
     bare_tone_step = 0.1
     bare_tone_prior = 0.7**2 / 12

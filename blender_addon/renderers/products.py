@@ -115,6 +115,10 @@ class ProductRenderer:
     bare_tone_step: float = 0.0
     bare_tone_prior: float = 0.0
 
+    def default_scene(self):
+        """Its default scene (bpy.types.Scene), got or built."""
+        raise NotImplementedError
+
     def bare_tone(self, offset: float):
         """A context: renders inside show the default scene's bare region `offset` further along its tone factor; the
         source must already be applied (a render on it), and its tone comes back after."""

@@ -113,3 +113,27 @@ def test_the_commands_take_a_lighting_and_the_dataset_records_it(tmp_path, capsy
     assert cli.run(["dataset", "lipstick", "--out", str(tmp_path / "data"), "--n", "1", "--res", "16", "--samples",
                     "2", "--lighting", "wide", "--quiet"]) == 0
     assert read_manifest(tmp_path / "data")["lighting"] == "wide"
+
+
+@pytest.mark.parametrize("name", ["lipstick", "eyeshadow"])
+def test_turned_light_turns_and_fills_the_sources_light_and_puts_it_back(name):
+    from blender_addon.renderers.lighting import turned_light
+    from blender_addon.renderers.products import blender_side
+    from vto_core.portrait_light import axis_angle
+
+    renderer = blender_side(name)
+    bound = renderer.bind(1, 32, 4, 0)
+    look = {"opacity": 1.0, "red": 120.0, "green": 60.0, "blue": 70.0}
+    before = bound.render(look)
+    scene = renderer.default_scene()
+    with turned_light(scene, np.eye(3)):
+        unturned = bound.render(look)
+    with turned_light(scene, axis_angle(np.array([0.0, 1.0, 0.0]), math.pi / 2)):  # the key from the side
+        turned = bound.render(look)
+    with turned_light(scene, np.eye(3), fill=3.0):
+        filled = bound.render(look)
+    after = bound.render(look)
+    np.testing.assert_allclose(unturned, before, atol=2e-3)
+    assert np.abs(turned - before).mean() > 0.02
+    assert filled.mean() > before.mean() + 0.01  # more of the map's soft light
+    np.testing.assert_array_equal(after, before)
