@@ -9,11 +9,11 @@ knows the scene (source, light, camera); one that must also allow for the camera
 white-balance error without metering the skin; one that does not know the bare region's own tone either (its one
 freedom across sources besides the skin's, where the product's scene has one: ProductRenderer.bare_tone); and one
 that does not know the light's direction (its turn about three axes) or its fill either, each with the spread a
-source draws it with (lighting.turned_light; the map itself, the skin tone and the shape stay known). From those spreads: the median colour error (8-bit steps, R,
-G and B pooled) on the looks with opacity >= 0.5 and the mean absolute error of every other modelled parameter (unit
-range) that such an ideal reader would make, at each resolution and sample count asked for. Noise is taken as
-independent between blocks, the light is linearised about its draw, and the rest of the source is known
-(vto eval hides it), so the floor is optimistic. On the 64 px,
+source draws it with (lighting.turned_light; the map itself, the skin tone and the shape stay known). From those
+spreads: the median colour error (8-bit steps, R, G and B pooled) on the looks with opacity >= 0.5 and the mean
+absolute error of every other modelled parameter (unit range) that such an ideal reader would make, at each
+resolution and sample count asked for. Noise is taken as independent between blocks, the light is linearised about
+its draw, and the rest of the source is known (vto eval hides it), so the floor is optimistic. On the 64 px,
 default-sample renders the shipped encoder reads the same references (the last row). Writes the section
 'render-floor-<product>' of benchmarks/results/colour_floor.md.
 
@@ -52,8 +52,15 @@ def light_prior() -> np.ndarray:
 
 def pooled_median_error(stds: np.ndarray, draws: int = 400, seed: int = 0) -> float:
     """stds (N, C) of Gaussian errors -> the median |error| over every look, channel and draw."""
+    if stds.size == 0:
+        return float("nan")
     rng = np.random.default_rng(seed)
     return float(np.median(np.abs(rng.normal(size=(draws, *stds.shape)) * stds)))
+
+
+def colour_text(error: float) -> str:
+    """A colour error's cell: '-' where there was none to take (no opaque look)."""
+    return "-" if np.isnan(error) else f"{error:.1f}"
 
 
 def camera_prior() -> np.ndarray:
@@ -132,8 +139,9 @@ def encoder_errors(spec, model: str, looks: list[dict], opaque: np.ndarray, othe
     truth = np.array([look["unit"] for look in looks])
     true_colour = np.array([[spec.values(spec.denormalise(u))[c] for c in COLOUR] for u in truth])
     colour_error = np.abs(np.array([[f[c] for c in COLOUR] for f in found]) - true_colour)[opaque]
-    return float(np.median(colour_error)), [float(np.abs(found_unit[:, spec.modelled.index(n)] -
-                                                          truth[:, spec.modelled.index(n)]).mean()) for n in others]
+    columns = [spec.modelled.index(name) for name in others]
+    return (float(np.median(colour_error)) if colour_error.size else float("nan"),
+            [float(np.abs(found_unit[:, j] - truth[:, j]).mean()) for j in columns])
 
 
 def run(product, n: int, seed: int, settings: list[tuple[int, int]], seeds: int, model: str,
@@ -150,35 +158,35 @@ def run(product, n: int, seed: int, settings: list[tuple[int, int]], seeds: int,
     others = [name for name in spec.modelled if name not in COLOUR]
     prior = np.cov(np.stack([sampler.sample_unit(10**6 + i) for i in range(PRIOR_DRAWS)]).T)
     opaque = np.array([spec.values(spec.denormalise(sampler.sample_unit(i)))["opacity"] >= OPAQUE for i in range(n)])
-    readers = {k: v for k, v in READERS.items() if k != "tone" or renderer.bare_tone_prior > 0}
     rows, kept = [], {}
     for res, samples in settings:
         start = time.perf_counter()
         looks = [measure_look(renderer, sampler, prior, seed, i, res, samples, seeds) for i in range(n)]
         seconds = (time.perf_counter() - start) / n
-        for reader, reader_text in readers.items():
+        for reader, reader_text in ((k, v) for k, v in READERS.items() if k in looks[0]):
             stds = np.array([look[reader] for look in looks])
             kept[f"{res}x{samples}_{reader}"] = stds
             rows.append([f"{res} px, {samples} spp", reader_text,
-                         f"{pooled_median_error(stds[opaque][:, colour] * 255.0):.1f}",
+                         colour_text(pooled_median_error(stds[opaque][:, colour] * 255.0)),
                          *(f"{np.sqrt(2 / np.pi) * stds[:, spec.modelled.index(o)].mean():.3f}" for o in others)])
         if res == 64 and samples == 16:
             colour_error, other_errors = encoder_errors(spec, model, looks, opaque, others)
-            rows.append([f"{res} px, {samples} spp", "the shipped encoder (reads the reference)", f"{colour_error:.1f}",
-                         *(f"{e:.3f}" for e in other_errors)])
+            rows.append([f"{res} px, {samples} spp", "the shipped encoder (reads the reference)",
+                         colour_text(colour_error), *(f"{e:.3f}" for e in other_errors)])
         print(f"{res} px {samples} spp: {seconds:.1f} s a look", flush=True)
     if looks_file:  # each reader's spreads (N, P) a setting, the looks' units (N, P) and the opaque ones
         np.savez(looks_file, units=np.array([sampler.sample_unit(i) for i in range(n)]), opaque=opaque,
                  modelled=np.array(spec.modelled), **kept)
     setting_text = ",".join(f"{r}x{s}" for r, s in settings)
     return (f"## What one render can tell of {product.label.lower()}: the floor for any encoder\n\n{n} fresh looks "
-            f"(seed {seed}; {int(opaque.sum())} with opacity >= {OPAQUE}) of the default scene, as `vto eval` draws them. On "
-            f"each of {seeds} Cycles seeds: the render and its central differences of 0.05 in each encoded unit, as "
-            f"means of the {product.region}' blocks (a sixteenth of the frame a side); the information is one half of "
-            "the seeds' differences against the other's, so that the noise a changed parameter brings (Cycles samples "
-            "other paths) does not count as signal. The error an ideal reader of one render would make (Gaussian "
-            "posterior about each look, the sampler's spread as prior): colour as the median over opaque looks and "
-            "R, G, B in 8-bit steps, the others as mean absolute errors in the encoded unit range (as `vto eval`'s)."
+            f"(seed {seed}; {int(opaque.sum())} with opacity >= {OPAQUE}) of the default scene, as `vto eval` draws "
+            f"them. On each of {seeds} Cycles seeds: the render and its central differences of 0.05 in each encoded "
+            f"unit, as means of the {product.region}' blocks (a sixteenth of the frame a side); the information is "
+            "one half of the seeds' differences against the other's, so that the noise a changed parameter brings "
+            "(Cycles samples other paths) does not count as signal. The error an ideal reader of one render would "
+            "make (Gaussian posterior about each look, the sampler's spread as prior): colour as the median over "
+            "opaque looks and R, G, B in 8-bit steps (- where no look is opaque), the others as mean absolute errors "
+            "in the encoded unit range (as `vto eval`'s)."
             "\n\n" + table(["render", "reader", f"colour error /255, opacity >= {OPAQUE}", *others], rows)
             + f"\n\nReproduce: `python -m benchmarks.bench_render_floor --renderer {product.name} --n {n} --seed "
             f"{seed} --settings {setting_text} --seeds {seeds}`.")
