@@ -106,14 +106,16 @@ def measure_look(renderer, sampler, prior: np.ndarray, seed: int, index: int, re
     camera = masked_block_means(camera_jacobian(noisy.mean(0)), mask, block)
     columns = [masked_block_means(seed_differences(render, unit, cycles_seeds), mask, block),
                np.broadcast_to(camera, (seeds, *camera.shape))]
-    priors = [prior, camera_prior()]
+    priors, readers = [prior, camera_prior()], ["known", "camera"]  # each reader also does not know its nuisance
     if renderer.bare_tone_prior > 0:
         columns.append(masked_block_means(seed_differences(render_tone, np.zeros(1), cycles_seeds,
                                                            renderer.bare_tone_step), mask, block))
         priors.append(np.array([[renderer.bare_tone_prior]]))
+        readers.append("tone")
     columns.append(masked_block_means(seed_differences(render_light, np.full(4, 0.5), cycles_seeds, LIGHT_STEP),
                                       mask, block))
     priors.append(light_prior())
+    readers.append("light")
     # One information matrix for the parameters and every nuisance, so that each reader's floor is a marginal of the
     # same Gaussian: a reader told less can only do worse.
     information = render_information(np.concatenate(columns, axis=1), variance)
@@ -122,7 +124,6 @@ def measure_look(renderer, sampler, prior: np.ndarray, seed: int, index: int, re
     for p, end in zip(priors, sizes):
         full_prior[end - len(p): end, end - len(p): end] = p
     spreads = {"unit": unit, "prior": np.sqrt(np.diag(prior)), "reference": noisy[0].astype(np.float32)}
-    readers = ("known", "camera", "tone", "light") if renderer.bare_tone_prior > 0 else ("known", "camera", "light")
     for reader, unknown in zip(readers, sizes):
         floor = parameter_floor(information[:unknown, :unknown], full_prior[:unknown, :unknown])
         spreads[reader] = np.sqrt(np.diag(floor)[: sizes[0]])
