@@ -192,4 +192,3 @@ def turned_light(scene: bpy.types.Scene, turn: np.ndarray, fill: float = 1.0):
         rotation.default_value, strength.default_value = kept[0], kept[1]
         for sun, (mode, turned, euler) in zip(suns, kept[2]):
             sun.rotation_quaternion, sun.rotation_euler, sun.rotation_mode = turned, euler, mode
-
