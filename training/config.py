@@ -73,6 +73,7 @@ class EncoderConfig(CommonConfig):
     lambda_rendering: float = 20.0
     loss: str = "both"  # ablation: graphics | rendering | both
     graphics_error: str = "squared"  # squared (the paper) | absolute: the graphics loss's per-parameter error
+    absolute_parameters: str = ""  # 'name,...': these take the absolute error whatever graphics_error says
     parameter_weights: str = ""  # 'name=weight,...' on the graphics loss (e.g. red=4,green=4,blue=4); others weigh 1
     augment: bool = False  # mirrored and shifted views of each render (training/data.augment)
     photo_views: bool = False  # what photos show and renders do not: tilt, zoom, blur, sensor noise (data.photo_views)

@@ -72,17 +72,23 @@ def parameter_difference(g_true, g_pred, wraps=None):
 def graphics_loss(g_true, g_pred, wraps=None, error="squared", weights=None):
     """g_true, g_pred: (B, m) -> scalar mean over B of the weighted sum of per-parameter errors.
 
-    error: "squared" (the paper) or "absolute" (whose minimiser is the median of what a render allows, not the mean);
+    error: "squared" (the paper) or "absolute" (whose minimiser is the median of what a render allows, not the mean)
+    for every parameter, or (m,) bools, True where a parameter's error is absolute (graphics_errors);
     weights: (m,) or None for all 1; wrapping dims are on the circle.
     """
     if g_true.ndim != 2 or g_true.shape != g_pred.shape:
         raise VtoError(
             f"graphics_loss: expected two (B, m) tensors of one shape, got {_shape(g_true)} and {_shape(g_pred)}"
         )
-    if error not in ("squared", "absolute"):
-        raise VtoError(f"graphics_loss: error must be squared or absolute, got '{error}'")
+    if isinstance(error, str):
+        if error not in ("squared", "absolute"):
+            raise VtoError(f"graphics_loss: error must be squared or absolute, got '{error}'")
+        error = [error == "absolute"] * g_true.shape[1]
+    if len(error) != g_true.shape[1]:
+        raise VtoError(f"graphics_loss: {len(error)} per-parameter errors for {g_true.shape[1]} parameters")
     difference = parameter_difference(g_true, g_pred, wraps)
-    per_parameter = difference.square() if error == "squared" else difference.abs()
+    absolute = torch.as_tensor(list(error), dtype=torch.bool, device=difference.device)
+    per_parameter = torch.where(absolute, difference.abs(), difference.square())
     if weights is not None:
         per_parameter = per_parameter * torch.as_tensor(weights, dtype=per_parameter.dtype, device=per_parameter.device)
     return per_parameter.sum(dim=1).mean()
@@ -95,6 +101,18 @@ def colour_loss(colour_net, g_true, g_pred):
     """What the estimate shows against what the truth shows: mean squared difference of the colour imitator's
     statistics (CIELAB, training.train_colour.ColourNet, frozen) of (B, m) unit parameters, in COLOUR_UNITs."""
     return ((colour_net(g_pred.clamp(0.0, 1.0)) - colour_net(g_true)) / COLOUR_UNIT).square().mean()
+
+
+def graphics_errors(error: str, absolute: str, names: list[str]) -> str | list[bool]:
+    """The graphics loss's error: `error` ('squared' or 'absolute') for every parameter where `absolute` is empty, else
+    (m,) bools, True for the parameters it names ('name,...') and for the rest where `error` is 'absolute'."""
+    if not absolute.strip():
+        return error
+    named = [item.strip() for item in absolute.split(",")]
+    unknown = [name for name in named if name not in names]
+    if unknown:
+        raise VtoError(f"absolute_parameters: {', '.join(unknown)} not among {', '.join(names)}")
+    return [name in named or error == "absolute" for name in names]
 
 
 def parameter_weights(setting: str, names: list[str]) -> list[float] | None:

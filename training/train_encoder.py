@@ -16,8 +16,8 @@ from .config import EncoderConfig, config_dict, data_record, with_epochs
 from .data import (RenderDataset, encoder_views, held_out_folders, held_out_text, make_loader, per_process_batch, split,
                    training_batches)
 from .distributed import Processes, processes
-from .losses import (PerceptualDistance, colour_loss, graphics_loss, parameter_difference, parameter_weights,
-                     weighted_total)
+from .losses import (PerceptualDistance, colour_loss, graphics_errors, graphics_loss, parameter_difference,
+                     parameter_weights, weighted_total)
 from .networks import Encoder, build
 from .run import RunFolder, optimise
 
@@ -52,9 +52,10 @@ def new_encoder(spec: RendererSpec, config: EncoderConfig) -> Encoder:
 
 
 def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: EncoderConfig, wraps=None,
-                   weights=None, colour_net=None):
+                   weights=None, colour_net=None, error=None):
     """g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g), colour loss through the
-    colour imitator (colour_net) where given: (log dict, total).
+    colour imitator (colour_net) where given: (log dict, total). error: the graphics loss's (graphics_errors), by
+    default config.graphics_error.
 
     The log holds each term unweighted and `<term>_weighted` (as it enters the total), and the total.
     """
@@ -63,7 +64,7 @@ def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: 
     g_hat = encoder(render)
     terms = {}  # name -> (unweighted value, weight)
     if config.loss in ("graphics", "both"):
-        terms["graphics"] = (graphics_loss(g, g_hat, wraps, config.graphics_error, weights), 1.0)
+        terms["graphics"] = (graphics_loss(g, g_hat, wraps, error or config.graphics_error, weights), 1.0)
     if config.loss in ("rendering", "both"):
         terms["rendering"] = (perceptual(imitator(batch["source"].to(device), g_hat), render), config.lambda_rendering)
     if colour_net is not None:
@@ -106,7 +107,9 @@ def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], 
     res = reader.manifest["res"]
     image_size = [res, res] if isinstance(res, int) else list(res[::-1])  # (H, W); a user scene records (W, H)
     wraps = [p.wraps for p in reader.spec.modelled_params]
-    weights = parameter_weights(config.parameter_weights, [p.name for p in reader.spec.modelled_params])
+    names = [p.name for p in reader.spec.modelled_params]
+    weights = parameter_weights(config.parameter_weights, names)
+    error = graphics_errors(config.graphics_error, config.absolute_parameters, names)
     imitator = load_frozen_imitator(imitator_run, reader.spec, device, image_size) if use_rendering else None
     train_positions, val_positions = split(reader, config.val_fraction, config.val_split == "each")
     config = with_epochs(config, len(train_positions))
@@ -172,7 +175,7 @@ def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], 
     model = procs.wrap(encoder)
     optimise(run, config, step, batches,
              lambda batch: encoder_losses(model, imitator, perceptual, encoder_views(batch, config),
-                                          runtime, wraps, weights, colour_net),
+                                          runtime, wraps, weights, colour_net, error),
              optimiser, validate, save, procs)
 
     # 4. Loss plot.

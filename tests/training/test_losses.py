@@ -14,6 +14,7 @@ from training.losses import (  # noqa: E402
     generator_adversarial_loss,
     gradient_penalty,
     graphics_loss,
+    graphics_errors,
     parameter_weights,
     parameter_difference,
     sensitivity_loss,
@@ -146,6 +147,25 @@ def test_graphics_loss_refuses_mismatched_shapes_and_unknown_errors():
         graphics_loss(torch.zeros(2, 3), torch.zeros(2, 4))
     with pytest.raises(VtoError, match="error must be squared or absolute, got 'cubed'"):
         graphics_loss(torch.zeros(2, 3), torch.zeros(2, 3), error="cubed")
+
+
+def test_graphics_loss_takes_the_absolute_error_of_the_parameters_named_and_squares_the_rest():
+    g_true = torch.tensor([[0.0, 1.0], [0.5, 0.5]])
+    g_pred = torch.tensor([[1.0, 1.0], [0.0, 1.5]])
+    error = graphics_errors("squared", "green", ["red", "green"])
+    assert error == [False, True]
+    # Red squared, green absolute: sample 0: 1 + 0; sample 1: 0.25 + 1; mean 1.125. Absolute red: |0.5| -> 1.25.
+    assert graphics_loss(g_true, g_pred, error=error).item() == pytest.approx(1.125)
+    assert graphics_loss(g_true, g_pred, error=[True, False]).item() == pytest.approx(1.25)
+    assert graphics_errors("absolute", "green", ["red", "green"]) == [True, True]
+    assert graphics_errors("squared", " ", ["red", "green"]) == "squared"
+
+
+def test_graphics_errors_refuse_a_parameter_not_modelled_and_a_list_of_the_wrong_length():
+    with pytest.raises(VtoError, match="absolute_parameters: rouge not among red, green"):
+        graphics_errors("squared", "red,rouge", ["red", "green"])
+    with pytest.raises(VtoError, match="3 per-parameter errors for 2 parameters"):
+        graphics_loss(torch.zeros(2, 2), torch.zeros(2, 2), error=[True, False, True])
 
 
 def test_parameter_weights_name_some_parameters_and_leave_the_rest_at_one():

@@ -174,7 +174,7 @@ def test_a_run_of_several_folders_made_before_val_split_resumes_only_with_the_ta
     assert RunFolder(resumed.path).load_checkpoint()["step"] == 4
 
 
-def test_an_absolute_weighted_graphics_loss_trains_and_a_bad_weight_leaves_no_run_folder(lipstick_dataset, tmp_path):
+def test_an_absolute_weighted_graphics_loss_trains_and_a_bad_weight_or_name_leaves_no_run_folder(lipstick_dataset, tmp_path):
     settings = TINY_ENCODER + ["steps=3", "loss=graphics", "graphics_error=absolute"]
     config = resolve_config(EncoderConfig, None, settings + ["parameter_weights=red=4,green=4,blue=4"])
     run = train_encoder(str(lipstick_dataset), None, str(tmp_path / "weighted"), config)
@@ -185,6 +185,15 @@ def test_an_absolute_weighted_graphics_loss_trains_and_a_bad_weight_leaves_no_ru
     with pytest.raises(VtoError, match="'rouge=4' is not name=weight"):
         train_encoder(str(lipstick_dataset), None, str(tmp_path / "bad"), config)
     assert not (tmp_path / "bad").exists()
+    mixed = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=3", "loss=graphics",
+                                                                "absolute_parameters=red,green,blue"])
+    run = train_encoder(str(lipstick_dataset), None, str(tmp_path / "mixed"), mixed)
+    assert np.isfinite(run.read_log()[-1]["graphics"])
+    assert json.loads((run.path / "config.json").read_text())["absolute_parameters"] == "red,green,blue"
+    with pytest.raises(VtoError, match="absolute_parameters: rouge not among opacity, red"):
+        train_encoder(str(lipstick_dataset), None, str(tmp_path / "bad_name"),
+                      dataclasses.replace(mixed, absolute_parameters="rouge"))
+    assert not (tmp_path / "bad_name").exists()
 
 
 def test_encoder_with_rendering_loss_trains_through_the_imitator(lipstick_dataset, imitator_run, tmp_path):
