@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
-# The shipped eye-shadow encoder since session 74: START (the session-60 file, `scripts/train_eyeshadow_faces.sh`)
-# fine-tuned with the colour loss on the dark-to-light lids of the London Set's and data/faces' training people beside
-# 9,000 default eyes, then averaged weight by weight with START (`vto export --average weights`): one network, read at
-# one network's cost (blender_addon/models/eyeshadow_encoder.md, session 74).
+# The shipped eye-shadow encoder since session 81: START (the session-60 file, `scripts/train_eyeshadow_faces.sh`)
+# fine-tuned with the colour loss and the absolute graphics error on the dark-to-light lids of the London Set's and
+# data/faces' training people beside 9,000 default eyes, then averaged weight by weight with START (`vto export
+# --average weights`): one network, read at one network's cost (blender_addon/models/eyeshadow_encoder.md, sessions
+# 74 and 81).
 #   START=FILE.onnx scripts/train_eyeshadow_soup.sh NAME [--set key=value ...]
 #       -> out/NAME.onnx (the soup), out/runs/NAME (the fine-tune)
-# The datasets resume where they stopped (each is skipped once whole). CPU, two cores (session 74): the colour
-# imitator's 4,000 default eyes about 25 min, each face folder 8, the 9,000 default eyes 32; 1,500 colour steps and
-# 4,000 encoder steps about 2 and 8 min.
+# The datasets resume where they stopped (each is skipped once whole). CPU, two cores (session 81): the colour
+# imitator's 4,000 default eyes about 10 min, each face folder 5, the 9,000 default eyes 21; 1,500 colour steps and
+# 4,000 encoder steps about 2 and 7 min.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VTO=.venv/bin/vto
@@ -31,7 +32,7 @@ $VTO dataset eyeshadow --out out/data/eye64b --n 9000 --seed 82 --workers 2 --no
 SETTINGS=(--set loss=graphics --set augment=true --set photo_views=true --set blocks=1 --set batch_norm=true
        --set input_filter=3 --set lr=0.0003 --set schedule=cosine --set warmup_steps=50 --set log_every=250
        --set checkpoint_every=1000 --set steps=4000 --set val_fraction=0.02
-       --set colour_imitator=out/eyeshadow_colour.onnx --set lambda_colour=1)
+       --set colour_imitator=out/eyeshadow_colour.onnx --set lambda_colour=1 --set graphics_error=absolute)
 $VTO train encoder --data out/data/eye64b out/data/eyelondon94l out/data/eyefaces95l \
     --out "out/runs/$NAME" "${SETTINGS[@]}" --set init="$START" "$@"
 $VTO export --encoder "out/runs/$NAME" "$START" --average weights --out "out/$NAME.onnx"

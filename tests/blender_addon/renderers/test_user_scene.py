@@ -66,7 +66,8 @@ def _make(path, *extra):
 
 @pytest.fixture(scope="module")
 def card(tmp_path_factory):
-    return _make(tmp_path_factory.mktemp("card") / "card.blend")
+    yield _make(tmp_path_factory.mktemp("card") / "card.blend")
+    bpy.ops.wm.read_factory_settings(use_empty=True)  # later modules expect no .blend open, whichever tests ran
 
 
 def _open(path):
