@@ -62,7 +62,8 @@ def training_rate(kind: str, width: int, res: int, device: str, steps: int = 3) 
         perceptual = PerceptualDistance("ssim_l1").to(device)
 
         def step():
-            _, total = encoder_losses(encoder, imitator, perceptual, batch, config)
+            _, total = encoder_losses(encoder, imitator, perceptual, batch, config,
+                                      error=config.graphics_error)
             opt.zero_grad()
             total.backward()
             opt.step()

@@ -52,10 +52,10 @@ def new_encoder(spec: RendererSpec, config: EncoderConfig) -> Encoder:
 
 
 def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: EncoderConfig, wraps=None,
-                   weights=None, colour_net=None, error=None):
+                   weights=None, colour_net=None, *, error):
     """g_hat = E(R(X, g)); graphics loss on g, rendering loss on I(X, g_hat) vs R(X, g), colour loss through the
-    colour imitator (colour_net) where given: (log dict, total). error: the graphics loss's (graphics_errors), by
-    default config.graphics_error.
+    colour imitator (colour_net) where given: (log dict, total). error: the graphics loss's, as graphics_errors gives it
+    from config.graphics_error and config.absolute_parameters.
 
     The log holds each term unweighted and `<term>_weighted` (as it enters the total), and the total.
     """
@@ -64,7 +64,7 @@ def encoder_losses(encoder: Encoder, imitator, perceptual, batch: dict, config: 
     g_hat = encoder(render)
     terms = {}  # name -> (unweighted value, weight)
     if config.loss in ("graphics", "both"):
-        terms["graphics"] = (graphics_loss(g, g_hat, wraps, error or config.graphics_error, weights), 1.0)
+        terms["graphics"] = (graphics_loss(g, g_hat, wraps, error, weights), 1.0)
     if config.loss in ("rendering", "both"):
         terms["rendering"] = (perceptual(imitator(batch["source"].to(device), g_hat), render), config.lambda_rendering)
     if colour_net is not None:
@@ -175,7 +175,7 @@ def _train_encoder(reader: DatasetReader | DatasetUnion, data: str | list[str], 
     model = procs.wrap(encoder)
     optimise(run, config, step, batches,
              lambda batch: encoder_losses(model, imitator, perceptual, encoder_views(batch, config),
-                                          runtime, wraps, weights, colour_net, error),
+                                          runtime, wraps, weights, colour_net, error=error),
              optimiser, validate, save, procs)
 
     # 4. Loss plot.

@@ -196,6 +196,26 @@ def test_an_absolute_weighted_graphics_loss_trains_and_a_bad_weight_or_name_leav
     assert not (tmp_path / "bad_name").exists()
 
 
+def test_encoder_losses_take_the_graphics_error_they_are_given_and_have_no_default():
+    from training.losses import graphics_loss
+    from training.networks import Encoder
+    from training.train_encoder import encoder_losses
+
+    torch.manual_seed(0)
+    encoder = Encoder(2, 8, 2).eval()
+    batch = {"render": torch.rand(4, 3, 16, 16), "g": torch.rand(4, 2)}
+    config = resolve_config(EncoderConfig, None, ["loss=graphics", "graphics_error=squared"])
+    with torch.no_grad():
+        g_hat = encoder(batch["render"])
+        for error in ("squared", [False, True]):
+            log, total = encoder_losses(encoder, None, None, batch, config, error=error)
+            assert total.item() == pytest.approx(graphics_loss(batch["g"], g_hat, None, error).item())
+    assert encoder_losses(encoder, None, None, batch, config, error=[False, True])[1] != \
+        encoder_losses(encoder, None, None, batch, config, error="squared")[1]
+    with pytest.raises(TypeError, match="error"):  # config.graphics_error alone would drop absolute_parameters
+        encoder_losses(encoder, None, None, batch, config)
+
+
 def test_encoder_with_rendering_loss_trains_through_the_imitator(lipstick_dataset, imitator_run, tmp_path):
     config = resolve_config(EncoderConfig, None, TINY_ENCODER + ["steps=10"])
     last = train_encoder(str(lipstick_dataset), str(imitator_run), str(tmp_path / "both"), config).read_log()[-1]
