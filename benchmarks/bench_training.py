@@ -22,7 +22,7 @@ import torch
 from benchmarks.common import best_time, table, write_section
 from training.config import EncoderConfig, ImitatorConfig, resolve_config
 from training.export import export_encoder
-from training.losses import PerceptualDistance
+from training.losses import PerceptualDistance, graphics_errors
 from training.networks import Critic, Encoder, Imitator
 from training.run import RunFolder
 from training.train_encoder import encoder_losses, train_encoder
@@ -60,10 +60,10 @@ def training_rate(kind: str, width: int, res: int, device: str, steps: int = 3) 
         encoder, imitator = Encoder(m, width).to(device), Imitator(m, 16).to(device).eval()
         opt = torch.optim.Adam(encoder.parameters())
         perceptual = PerceptualDistance("ssim_l1").to(device)
+        error = graphics_errors(config.graphics_error, config.absolute_parameters, SPEC.modelled)
 
         def step():
-            _, total = encoder_losses(encoder, imitator, perceptual, batch, config,
-                                      error=config.graphics_error)
+            _, total = encoder_losses(encoder, imitator, perceptual, batch, config, error=error)
             opt.zero_grad()
             total.backward()
             opt.step()
