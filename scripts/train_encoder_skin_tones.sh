@@ -3,16 +3,16 @@
 # trained on the London Set's training people (data/faces/london, its 'train' split: 63 people, neutral and smiling;
 # never its 39 evaluation people) beside the training faces of data/faces and fresh default-scene looks.
 #   scripts/train_encoder_skin_tones.sh NAME [--set key=value ...]   -> out/NAME.onnx
-# The shipped file (session 67; made in session 66 as whole_c): `START=<session 61's file, london_wn> STEPS=4000
+# The shipped file (2026-11-29, the run whole_c): `START=<the 2026-11-28 file, london_wn> STEPS=4000
 # scripts/train_encoder_skin_tones.sh whole_c --set graphics_error=absolute`, on datasets rendered since the try-on
-# paints a closed mouth's lips whole (session 65), with dark82l given twice beside them. Session 61's london_wn was
+# paints a closed mouth's lips whole (2026-11-29), with dark82l given twice beside them. london_wn (2026-11-28) was
 # `START=out/london_wm.onnx STEPS=4000 ... london_wn --set graphics_error=absolute` on the datasets of its day (a bare
 # band through closed mouths, no dark82l), where london_wm is `START=out/london_wl.onnx STEPS=4000 ... london_wm --set
 # graphics_error=absolute` run before london80l and lip64m existed, london_wl `START=out/london_w.onnx STEPS=2000 ...
 # london_wl --set graphics_error=absolute` before lip64l, and london_w `START=out/london_k.onnx STEPS=3000 ...
 # london_w` before london78l; then copied to blender_addon/models/lipstick_encoder.onnx. The one before them
 # (2026-11-27, london_l1) was trained from a193996's file on the first three datasets alone. The datasets resume where
-# they stopped (each is skipped once whole). CPU (session 66): 33,000 looks at about 5 a second in each of two
+# they stopped (each is skipped once whole). CPU (2026-11-29): 33,000 looks at about 5 a second in each of two
 # processes (about 55 min), then 4,000 steps in 7 min on one thread (150 looks a second).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -50,7 +50,7 @@ $VTO dataset lipstick --out out/data/lip64m --n 3000 --seed 81 --no-source \
 # The training split's darker-skinned faces alone: the London Set's 4 training people who are not white (of 63; the
 # skin-tone benchmark's evaluation holds 29 such of 39) and data/faces' 2 training faces of dark skin (of 98): their
 # folder is given twice (its 3,000 looks weigh as 6,000 of the 26,000 on real faces): once, the black group's bias
-# fell as far, but the dark products read no darker and the held-out NASA round trip lost 0.35 (session 66, whole_b).
+# fell as far, but the dark products read no darker and the held-out NASA round trip lost 0.35 (2026-11-29, whole_b).
 DARK=out/faces_darker
 mkdir -p "$DARK"
 .venv/bin/python - "$DARK" <<'PY'
@@ -77,7 +77,7 @@ SETTINGS=(--set loss=graphics --set augment=true --set photo_views=true --set mo
 # The shipped file (whole_c) was trained with the held-out tail of all the folders together (`--set val_split=tail`,
 # the only split then): of dark82l given twice, the whole second copy and the last 600 looks of the first, so it
 # trained on 2,400 of its 3,000 looks, once; whole_b and whole_d, which gave it once and last, never trained on it
-# (found in session 70). `vto train` now holds out each folder's own last 10 % and names them in its log and in the
+# (found on 2026-11-29). `vto train` now holds out each folder's own last 10 % and names them in its log and in the
 # run's config.json (`held_out`).
 $VTO train encoder --data out/data/lip64e out/data/faces72 out/data/london71 out/data/london74p out/data/london75k \
     out/data/london76k out/data/lip64k out/data/london78l out/data/lip64l out/data/london80l out/data/lip64m \

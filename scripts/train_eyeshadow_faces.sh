@@ -29,8 +29,8 @@ SETTINGS=(--set loss=graphics --set augment=true --set photo_views=true --set bl
        --set input_filter=3 --set lr=0.0005 --set schedule=cosine --set warmup_steps=50 --set log_every=250
        --set checkpoint_every=1000 --set steps="${STEPS:-8000}")
 # The shipped file was trained with the held-out tail of all the folders together (`--set val_split=tail`, the only
-# split then): all of eyelondon94l and 1,197 looks of eyelondon93p, so it never trained on eyelondon94l (found in
-# session 70). `vto train` now holds out each folder's own last 10 % and names them in its log and config.json.
+# split then): all of eyelondon94l and 1,197 looks of eyelondon93p, so it never trained on eyelondon94l (found on
+# 2026-11-29). `vto train` now holds out each folder's own last 10 % and names them in its log and config.json.
 $VTO train encoder --data out/data/eye64a out/data/eye64b out/data/eye64c out/data/eyefaces92 out/data/eyelondon91 \
     out/data/eyelondon93p out/data/eyelondon94l \
     --out "out/runs/$NAME" "${SETTINGS[@]}" --set init="$START" "$@"

@@ -1,19 +1,19 @@
 #!/usr/bin/env bash
-# The shipped eye-shadow encoder since session 81: START (the session-60 file, `scripts/train_eyeshadow_faces.sh`)
+# The shipped eye-shadow encoder since 2026-12-06: START (the 2026-11-28 file, `scripts/train_eyeshadow_faces.sh`)
 # fine-tuned with the colour loss and the absolute graphics error on the dark-to-light lids of the London Set's and
 # data/faces' training people beside 9,000 default eyes, then averaged weight by weight with START (`vto export
-# --average weights`): one network, read at one network's cost (blender_addon/models/eyeshadow_encoder.md, sessions
-# 74 and 81).
+# --average weights`): one network, read at one network's cost (blender_addon/models/eyeshadow_encoder.md;
+# docs/experiments/eyeshadow.md).
 #   START=FILE.onnx scripts/train_eyeshadow_soup.sh NAME [--set key=value ...]
 #       -> out/NAME.onnx (the soup), out/runs/NAME (the fine-tune)
-# The datasets resume where they stopped (each is skipped once whole). CPU, two cores (session 81): the colour
+# The datasets resume where they stopped (each is skipped once whole). CPU, two cores (2026-12-06): the colour
 # imitator's 4,000 default eyes about 10 min, each face folder 5, the 9,000 default eyes 21; 1,500 colour steps and
 # 4,000 encoder steps about 2 and 7 min.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VTO=.venv/bin/vto
 NAME=$1; shift
-# START: the file fine-tuned and averaged with; the shipped file's was the session-60 file:
+# START: the file fine-tuned and averaged with; the shipped file's was the 2026-11-28 file:
 #   git show 28b9f5a:blender_addon/models/eyeshadow_encoder.onnx > out/eye60.onnx
 START=${START:?set START to the encoder to fine-tune and average with, e.g. out/eye60.onnx (see above)}
 # The colour imitator the colour loss reads (training only: no eye-shadow fit uses one, so it is not shipped): what a

@@ -32,6 +32,7 @@ PYTHON = f"python{sys.version_info[0]}.{sys.version_info[1]}"  # bpy 4.5 and 5.0
 # Each declared product's default encoder and model card ship in the zip (scripts/build_extension.py shipped_models).
 SHIPPED_MODELS = [f"{name}_encoder{suffix}" for name in ("lipstick", "hair", "eyeshadow")
                   for suffix in (".onnx", ".md")]
+CARDS = sorted(f"models/{p.name}" for p in (ROOT / "blender_addon" / "models").glob("*.md"))
 BLENDER_PYTHON_MODULES = ["bpy", "numpy", "numpy.libs", "OpenImageIO", "attr", "attrs", "cattrs", "requests",
                           "urllib3", "certifi", "idna", "charset_normalizer", "zstandard", "typing_extensions.py"]
 
@@ -157,8 +158,11 @@ def test_every_platform_zip_carries_both_pythons_onnxruntime(tmp_path):
     ext = load_blender_ext()
     for package in zips:
         with zipfile.ZipFile(package) as archive:
-            wheels = sorted(n.split("/")[-1] for n in archive.namelist() if n.startswith("wheels/onnxruntime-"))
+            names = archive.namelist()
+            wheels = sorted(n.split("/")[-1] for n in names if n.startswith("wheels/onnxruntime-"))
             manifest = archive.read("blender_manifest.toml").decode()
+        # the model cards ship with their models; the lab notebook (docs/experiments/) stays in the repository
+        assert sorted(n for n in names if n.endswith(".md")) == CARDS, package.name
         platform = package.stem.split("-")[-1]
         assert [w.split("-")[1:3] for w in wheels] == [[ONNXRUNTIME, "cp311"], [ONNXRUNTIME_313, "cp313"]], wheels
         assert all(w.removesuffix(".whl").endswith(tags[platform]) for w in wheels), (package.name, wheels)

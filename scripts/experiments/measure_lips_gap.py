@@ -1,6 +1,6 @@
 """How much of the lips the face mesh's inner lip contour leaves out, beside what a dark product reads there.
 
-    PYTHONPATH=. .venv/bin/python scripts/measure_lips_gap.py --cache out/st_s64.jsonl [--product "Goth Black Matte"]
+    PYTHONPATH=. .venv/bin/python scripts/experiments/measure_lips_gap.py --cache out/st_s64.jsonl [--product "Goth Black Matte"]
         [--picture benchmarks/results/skin_tones_lips_gap.png --faces 062 070 044 [--then out/st_s65c.jsonl]]
 
 The lips are the face mesh's outer lip contour less its inner one; on a closed mouth the mesh often leaves a gap

@@ -3,9 +3,9 @@
 The last renders of a `vto dataset` folder (those a training run on it holds out) are written as JPEG through
 OpenImageIO at several qualities, either at the encoder's 64 px or at 4x that size and then shrunk to 64 px (a photo is usually larger than the crop the encoder
 sees), and read back; the encoder's red, green and blue estimates are compared with those from the lossless render
-and with the truth, in 8-bit steps. Writes a section of benchmarks/results/jpeg.md.
+and with the truth, in 8-bit steps. Writes a section of scripts/experiments/results/jpeg.md.
 
-    python -m benchmarks.bench_jpeg --data DATA [--model blender_addon/models/lipstick_encoder.onnx] [--n 300]
+    python -m scripts.experiments.bench_jpeg --data DATA [--model blender_addon/models/lipstick_encoder.onnx] [--n 300]
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import RESULTS, lip_colour, table, write_section
+from benchmarks.common import lip_colour, table, write_section
 SETTINGS = ((90, 1), (70, 1), (50, 1), (30, 1), (70, 4), (50, 4), (30, 4))  # (JPEG quality, size factor)
 
 
@@ -55,7 +55,7 @@ def run(data: str, model: str, n: int) -> str:
             f"The last {len(samples)} renders of `{data}` (held out in training); medians over looks and channels, "
             "8-bit steps.\n\n"
             + table(["view", "JPEG written at", "shift from the lossless estimate", "error against the truth"], rows)
-            + f"\n\nReproduce: `python -m benchmarks.bench_jpeg --data DATA --model {model} --n {n}`.")
+            + f"\n\nReproduce: `python -m scripts.experiments.bench_jpeg --data DATA --model {model} --n {n}`.")
 
 
 def main() -> None:
@@ -63,7 +63,7 @@ def main() -> None:
     parser.add_argument("--data", required=True, help="a lipstick `vto dataset` folder")
     parser.add_argument("--model", default="blender_addon/models/lipstick_encoder.onnx")
     parser.add_argument("--n", type=int, default=300)
-    parser.add_argument("--results", default=str(RESULTS))
+    parser.add_argument("--results", default=str(Path(__file__).parent / "results"))
     args = parser.parse_args()
     write_section("jpeg", "jpeg-colour", run(args.data, args.model, args.n), Path(args.results))
 

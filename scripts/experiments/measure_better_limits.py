@@ -1,7 +1,7 @@
 """What limits the lips' Better on studio portraits: presets that no benchmark measures, tried on the London Set's
 training people, read back by Fast and by Better, and by Better given what a photo cannot give it.
 
-    PYTHONPATH=. .venv/bin/python scripts/measure_better_limits.py [--faces 8] [--work out/better_limits]
+    PYTHONPATH=. .venv/bin/python scripts/experiments/measure_better_limits.py [--faces 8] [--work out/better_limits]
         [--methods "fast|better|trust 0.25: TRUST_SCALE=0.25|..."]
 
 Products: DEVELOPMENT, 10 presets that are not among bench_skin_tones' products. Faces: the London Set's training
