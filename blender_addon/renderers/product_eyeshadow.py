@@ -59,8 +59,8 @@ class EyeShadowRenderer(ProductRenderer):
         return lambda values: (render_eyeshadow(values, source, res, samples, 0), mask)
 
     def iter_fit_sources(self, region, count, res, samples):
-        """The first `count` default eye sources of EYE_POOL, as they are (the photo's skin and light are not read
-        yet: the eyes' try-on on portraits is the next issue)."""
+        """The first `count` default eye sources of EYE_POOL, as they are (Better and Best on a portrait fit in the
+        photo's own scene instead; these serve a lid given without its face)."""
         return [self.region_renderer(seed, res, samples) for seed in EYE_POOL[:count]]
         yield  # a generator, as the other products' (nothing to wait for)
 
