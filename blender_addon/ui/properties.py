@@ -28,10 +28,11 @@ class VTO_PG_match_settings(bpy.types.PropertyGroup):
                            description="An image already in the .blend as the reference")
     find_region: BoolProperty(name="Find Region", default=True,
                               description="Find what the photo shows of the product: the lips with a face model (a "
-                                          "portrait, or a close-up of lips), the hair around the largest face of a "
-                                          "portrait (a picture with no face is read whole as a patch of hair); off: "
-                                          "the image or crop is taken as it is (as always for eye shadow, until "
-                                          "the eyelids are found in portraits)")
+                                          "portrait, or a close-up of lips), both eyes' lids on a portrait's face "
+                                          "mesh, the hair around the largest face of a portrait (a picture with no "
+                                          "face is read whole as a patch of hair); off: the image or crop is taken "
+                                          "as it is (for eye shadow, one eye framed as the default eye scene frames "
+                                          "it)")
     use_crop: BoolProperty(name="Crop", default=False, description="Estimate from a part of the reference only")
     crop: FloatVectorProperty(name="Crop", size=4, min=0.0, default=(0.0, 0.0, 1.0, 1.0),
                               description="x, y, width, height from the top-left corner: in pixels, or fractions of "
