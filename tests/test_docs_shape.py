@@ -50,10 +50,10 @@ def bullets(text: str) -> list[list[str]]:
     return items
 
 
-def tracked_text_files() -> list[Path]:
-    """Every file git tracks that reads as UTF-8 text."""
+def tracked_texts() -> dict[Path, str]:
+    """Every file git tracks that reads as UTF-8 text, with its text."""
     listed = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True).stdout
-    files = []
+    texts = {}
     for name in filter(None, listed.decode().split("\0")):
         path = ROOT / name
         try:
@@ -62,11 +62,10 @@ def tracked_text_files() -> list[Path]:
             continue
         if b"\0" not in data[:8192]:
             try:
-                data.decode("utf-8")
+                texts[path] = data.decode("utf-8")
             except UnicodeDecodeError:
                 continue
-            files.append(path)
-    return files
+    return texts
 
 
 def narration(text: str) -> list[str]:
@@ -118,9 +117,9 @@ def test_the_bullet_reader_counts_a_limits_continuation_lines():
 
 
 def test_no_tracked_file_narrates_the_work_by_sessions():
-    files = tracked_text_files()
-    assert len(files) > 100
-    found = [f"{p.relative_to(ROOT)}: {line[:80]}" for p in files for line in narration(p.read_text("utf-8"))]
+    texts = tracked_texts()
+    assert len(texts) > 100
+    found = [f"{p.relative_to(ROOT)}: {line[:80]}" for p, text in texts.items() for line in narration(text)]
     assert not found, f"{len(found)} line(s):\n" + "\n".join(found[:20])
 
 
