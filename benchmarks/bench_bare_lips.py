@@ -29,6 +29,7 @@ def measured() -> list[tuple[str, dict, np.ndarray, np.ndarray]]:
     """(set, entry, skin (3,) in the light's white, lips (3,) likewise) linear, for every face of SETS wearing no
     lipstick whose lips are found."""
     from blender_addon.renderers.tryon import photo_lips
+    from vto_core.products import LIPSTICK
     from vto_core.appearance import skin_colour
     from vto_core.colour import srgb_to_linear
     from vto_core.errors import VtoError
@@ -40,7 +41,7 @@ def measured() -> list[tuple[str, dict, np.ndarray, np.ndarray]]:
             if entry.get("lipstick") != "none":
                 continue
             try:
-                target = photo_lips(read_image(ROOT / entry["file"])[0][..., :3], 64)
+                target = photo_lips(read_image(ROOT / entry["file"])[0][..., :3], LIPSTICK, 64)
             except VtoError:
                 continue
             skin = skin_colour(target.frame, target.mask)

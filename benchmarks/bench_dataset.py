@@ -20,7 +20,7 @@ def bare_seconds_per_sample(renderer: str, res: int, repeats: int = 10) -> float
     import bpy
 
     from blender_addon.renderers.hair import COLOR_GROUP, SWATCH_GROUP, _pass_scene, render_hair_source, run_hair_stage
-    from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.renderers.product_lipstick import render_lipstick
     from blender_addon.renderers.cycles import _quiet_stdout, configure_cycles
     from blender_addon.renderers.scene_hair import build_hair_scene
     from blender_addon.renderers.scene_lips import build_lips_scene

@@ -281,7 +281,7 @@ def made_up(model: Path, qualities: list[str], out: Path) -> str:
     Better and Best see it) to the photo's lid colour, beside no product and the mean preset (one answer for every
     photo), and a picture at `out`: each photo's right eye | each quality's estimate on the default eye."""
     from blender_addon.renderers.products import render
-    from blender_addon.renderers.tryon import around_lips
+    from blender_addon.renderers.tryon import around_region
     from blender_addon.shipped import photo_reader
     from vto_core.imageio import read_image, write_image
     from vto_core.photo.framing import view_cut
@@ -298,7 +298,7 @@ def made_up(model: Path, qualities: list[str], out: Path) -> str:
         looks = {"no product": {"opacity": 0.0}, "mean preset": mean,
                  **{quality: estimate(model, path, quality)[0] for quality in qualities}}
         found, _ = photo_reader().locate_regions(EYESHADOW, photo)
-        view = around_lips(found[0][1], size)
+        view = around_region(found[0][1], size)
         pictures.append(np.concatenate([view_cut(photo, view, size)[..., :3]] + [
             render("eyeshadow", spec.check_values(spec.full_values(looks[quality])), 1, size, TRYON_SAMPLES, 0)
             for quality in qualities], 1))

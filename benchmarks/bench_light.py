@@ -43,7 +43,7 @@ BEFORE = ("encoder, light left in", "colour fit, light left in (Fast before)")
 
 def calibrate() -> str:
     """The mean and covariance of log linear skin RGB beside the lips over CALIBRATION_SOURCES (bare lips, 64 px)."""
-    from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.renderers.product_lipstick import render_lipstick
     from blender_addon.renderers.scene_lips import lips_mask
     from vto_core.appearance import skin_colour
 
@@ -85,7 +85,7 @@ def spread(apparent: dict[str, dict[str, np.ndarray]], reference: str) -> dict[s
 
 def run_renders(looks: int, qualities: list[str], work: Path) -> tuple[list, dict]:
     """Per look (sampled at seed 31), its estimates under each light: (rows, method -> all CIEDE2000s)."""
-    from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.renderers.product_lipstick import render_lipstick
     from blender_addon.matching.photo_fit import apparent_colour
     from blender_addon.renderers.scene_lips import lips_mask
     from vto_core.imageio import write_image

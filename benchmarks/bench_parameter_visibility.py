@@ -4,8 +4,8 @@ noise (vto_core.visibility.parameter_visibility, 4x4 blocks of the product's reg
     python -m benchmarks.bench_parameter_visibility [--renderer eyeshadow] [--sources 4]
 
 Each parameter is measured on its measurement look (vto_core.visibility.measurement_look: the product on, with the
-layer it acts on). The bar is VISIBLE_RATIO (3): a modelled parameter under it needs its reason (Product.below_bar);
-an unmodelled one names why the spec leaves it out. Writes the '<renderer>-parameters' section of
+layer it acts on). The bar is VISIBLE_RATIO (3): every modelled parameter must stand above it (a parameter under it
+is left out of the spec, which names why: `vto spec`'s "left_out"). Writes the '<renderer>-parameters' section of
 benchmarks/results/visibility.md.
 """
 

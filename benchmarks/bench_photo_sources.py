@@ -267,7 +267,7 @@ def sweep(models: dict[str, Path], work: Path, renders: Renders) -> str:
             photo_slopes = []
             for record in records:
                 path = photo_file(record, work)
-                mask = read_reference("lipstick", {"image_path": str(path)}).lips.mask
+                mask = read_reference("lipstick", {"image_path": str(path)}).found.mask
                 whole = read_image(path)[0][..., :3]
                 reads = []
                 for amount in SWEEP:
@@ -369,9 +369,10 @@ def exposure(model: Path, work: Path) -> str:
 def picture(models: dict[str, Path], qualities: list[str], faces: int, out: Path) -> str:
     """Part (d): per held-out face, its photo around the lips | each model's Fast (and the new one's other
     `qualities`) tried on it | each estimate on the default lips (source 0)."""
-    from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.renderers.product_lipstick import render_lipstick
     from blender_addon.renderers.tryon import tryon_view
     from vto_core.imageio import read_image, write_image
+    from vto_core.products import LIPSTICK
 
     size, rows = 128, []
     for entry in held_out_faces(faces):
@@ -380,8 +381,8 @@ def picture(models: dict[str, Path], qualities: list[str], faces: int, out: Path
         estimates = {f"{label} Fast": estimate(model, path, "fast")[0] for label, model in models.items()}
         estimates.update({f"new {quality.title()}": estimate(models["new"], path, quality)[0]
                           for quality in qualities if quality != "fast"})
-        cells = [tryon_view(photo, next(iter(estimates.values())), size, TRYON_SAMPLES, 0)[0]]
-        cells += [tryon_view(photo, values, size, TRYON_SAMPLES, 0)[1] for values in estimates.values()]
+        cells = [tryon_view(photo, next(iter(estimates.values())), size, TRYON_SAMPLES, 0, LIPSTICK)[0]]
+        cells += [tryon_view(photo, values, size, TRYON_SAMPLES, 0, LIPSTICK)[1] for values in estimates.values()]
         cells += [render_lipstick(values, 0, size, TRYON_SAMPLES, 0) for values in estimates.values()]
         rows.append(np.concatenate(cells, axis=1))
     write_image(out, np.concatenate(rows, axis=0))

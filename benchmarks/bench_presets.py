@@ -82,7 +82,7 @@ def main() -> None:
                                                              "preset at instead (section roughness-NAME)")
     parser.add_argument("--results", default=str(RESULTS))
     args = parser.parse_args()
-    from blender_addon.renderers.scene_lips import DEFAULT_LIGHTING
+    from blender_addon.renderers.scene_build import DEFAULT_LIGHTING
 
     lighting = args.lighting or DEFAULT_LIGHTING
     sources = range(args.first, args.first + args.sources)

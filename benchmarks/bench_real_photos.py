@@ -100,11 +100,11 @@ def lips_cell(reference) -> np.ndarray:
     from blender_addon.ui.thumbnail import outline
 
     cell = show(reference.image)
-    if reference.lips is not None and len(reference.lips.outer):
+    if reference.found is not None and len(reference.found.outer):
         x, y, w, h = reference.box
         scale = SHOW / max(w, h)
         canvas = np.concatenate([cell, np.ones((SHOW, SHOW, 1), np.float32)], -1)
-        for contour in (reference.lips.outer, reference.lips.inner):
+        for contour in (reference.found.outer, reference.found.inner):
             outline(canvas, (np.asarray(contour, np.float64) - (x, y)) * scale, (0.2, 0.9, 1.0))
         cell = canvas[..., :3]
     return cell
@@ -127,7 +127,7 @@ def run_lips(records: list[dict], folder: Path, qualities: list[str], work: Path
         path = work / f"{Path(record['file']).stem.replace(':', '_').replace('/', '_')}.png"
         write_image(path, photo)
         reference = read_reference("lipstick", {"image_path": str(path), "neutral_light": False})  # the photo's colours
-        iou = box_iou(reference.lips.box, record["lips_box"]) if reference.lips is not None else 0.0
+        iou = box_iou(reference.found.box, record["lips_box"]) if reference.found is not None else 0.0
         photo_mean, photo_body = mean_colour(*reference.region), body_colour(*reference.region)
         cells = [show(photo), lips_cell(reference)]
         for quality in [ENCODER, *qualities]:

@@ -13,7 +13,7 @@ import numpy as np
 
 from benchmarks.common import best_time, write_table
 from blender_addon.renderers.hair import render_hair_source, run_hair_stage
-from blender_addon.renderers.lipstick import render_lipstick
+from blender_addon.renderers.product_lipstick import render_lipstick
 from blender_addon.renderers.cycles import render_passes, to_display
 from blender_addon.renderers.scene_furnace import render_furnace, seen_colour
 from blender_addon.renderers.scene_lips import build_lips_scene, lips_mask
@@ -35,7 +35,7 @@ ROUNDS = 2
 LIPSTICK_SCRIPT = """
 import json, sys, time
 import numpy as np
-from blender_addon.renderers.lipstick import render_lipstick
+from blender_addon.renderers.product_lipstick import render_lipstick
 from vto_core.metrics import psnr
 from vto_core.presets import load_presets
 values = load_presets("lipstick")["Classic Red"]

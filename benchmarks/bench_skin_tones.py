@@ -218,6 +218,7 @@ def sheet(faces: list[dict], rows: list[dict]) -> np.ndarray:
     from blender_addon.renderers.tryon import tryon_view
     from vto_core.imageio import read_image
     from vto_core.presets import load_presets
+    from vto_core.products import LIPSTICK
 
     presets = load_presets("lipstick")
     estimates = {(r["face"], r["product"]): r["estimates"]["fast"]["values"] for r in rows}
@@ -226,8 +227,8 @@ def sheet(faces: list[dict], rows: list[dict]) -> np.ndarray:
         photo = read_image(ROOT / record["file"])[0]
         cells = []
         for name in PRODUCTS:
-            cells.append(tryon_view(photo, presets[name], CELL, SAMPLES, 0)[1])
-            cells.append(tryon_view(photo, estimates[record["file"], name], CELL, SAMPLES, 0)[1])
+            cells.append(tryon_view(photo, presets[name], CELL, SAMPLES, 0, LIPSTICK)[1])
+            cells.append(tryon_view(photo, estimates[record["file"], name], CELL, SAMPLES, 0, LIPSTICK)[1])
             cells.append(np.ones((CELL, 4, 3), np.float32))  # a white gap between products
         picture.append(np.concatenate(cells, axis=1))
     return np.concatenate(picture, axis=0)

@@ -71,12 +71,13 @@ def hue(lab: np.ndarray) -> float:
 def run(records: list[dict], samples: int) -> tuple[list, list, np.ndarray]:
     """(per-face rows, pooled order figures, the sheet)."""
     from blender_addon.matching.photo_fit import apparent_colour
-    from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.renderers.product_lipstick import render_lipstick
     from blender_addon.renderers.tryon import find_lips, tryon_lipstick
     from vto_core.colour import srgb_to_lab
     from vto_core.imageio import resize
     from vto_core.photo.tryon import feathered
     from vto_core.presets import load_presets
+    from vto_core.products import LIPSTICK
 
     presets = load_presets("lipstick")
     reference = {name: srgb_to_lab(apparent_colour("lipstick", presets[name])["mean"]) for name in PRODUCTS}
@@ -85,7 +86,7 @@ def run(records: list[dict], samples: int) -> tuple[list, list, np.ndarray]:
     rows, sheet_rows = [], []
     for record in records:
         photo = photo_of(record)
-        lips = find_lips(photo)
+        lips = find_lips(photo, LIPSTICK)
         reach = feathered(lips.mask) > 0
         x, y, w, h = lips.box
         half_w, half_h = 0.8 * w, 0.8 * w * CELL[0] / CELL[1]

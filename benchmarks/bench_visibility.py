@@ -21,8 +21,9 @@ POINTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 
 def main() -> None:
     """Measure and write the 'visibility-steps' section of benchmarks/results/visibility.md."""
-    from blender_addon.renderers.lipstick import render_lipstick
-    from blender_addon.renderers.scene_lips import DEFAULT_LIGHTING, lips_mask
+    from blender_addon.renderers.product_lipstick import render_lipstick
+    from blender_addon.renderers.scene_build import DEFAULT_LIGHTING
+    from blender_addon.renderers.scene_lips import lips_mask
     from vto_core.dataset import DEFAULT_SAMPLES
     from vto_core.products import get_spec
     from vto_core.visibility import measurement_look, step_visibility

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from vto_core.cli import ArgumentParser
+from vto_core.cli import ArgumentParser, products_that
 from vto_core.errors import VtoError
 
 
@@ -28,7 +28,7 @@ def cmd_eval(argv: list[str]) -> int:
     parser.add_argument("--compare", action="append", default=[], metavar="NAME=MODEL",
                         help="another encoder of the same spec, evaluated on the same references (repeatable)")
     parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
-                        help="lipstick: the default lips scene's lighting (default portrait)")
+                        help=f"{products_that('lightings')}: the default scene's lighting (default portrait)")
     parser.add_argument("--search-seed-offset", type=int, default=0,
                         help="Cycles seed of what methods render on source A, past the reference's (0: its own seed, "
                              "the reference's noise shared; another value: noise of their own, as against a photo)")

@@ -218,7 +218,7 @@ def commands(renderer, args_i, args_e, imitator_set, encoder_set, size: DemoSize
 
 
 def cmd_demo(argv: list[str]) -> int:
-    """vto demo [--renderer lipstick|hair] [--size smoke|small|full] --out DIR."""
+    """vto demo [--renderer PRODUCT] [--size smoke|small|full] --out DIR."""
     parser = ArgumentParser(prog="vto demo", description="the whole pipeline on the default scene: datasets, "
                                                          "imitator, encoder, ONNX export, evaluation, HTML report")
     parser.add_argument("--renderer", choices=product_names(), default=product_names()[0])

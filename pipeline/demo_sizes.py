@@ -42,7 +42,7 @@ class DemoSize:
 
     def source_args(self, renderer: str) -> list[str]:
         """The encoder data's `--looks-per-source`, for products whose looks may share a source render; else none."""
-        shares = self.looks_per_source > 1 and get_product(renderer).shared_sources
+        shares = self.looks_per_source > 1 and get_product(renderer).kind.shared_sources
         return ["--looks-per-source", str(self.looks_per_source)] if shares else []
 
     def params(self, renderer: str) -> str | None:

@@ -35,7 +35,6 @@ from vto_core.specs import RendererSpec
 SEED_BASE = 2**32
 # Sources of look i: A = SOURCE_BASE + 2i, B = SOURCE_BASE + 2i + 1 (datasets draw random 31-bit source seeds).
 SOURCE_BASE = 5000
-GLOSS_HIGH = 2.0  # lipstick "high gloss": above the glossy presets' typical amount
 EXTREME = 0.1  # a unit value below 0.1 or above 0.9 is at its range's extreme
 COLOUR = ("red", "green", "blue")  # lipstick: the makeup colour's parameters
 OPAQUE = 0.5  # lipstick: looks whose true opacity is at least this show their colour (issue 17's colour goal)
@@ -84,13 +83,14 @@ def is_dark(renderer: str, values: dict[str, float]) -> bool:
 
 
 def buckets(spec: RendererSpec, values: dict[str, float], unit: np.ndarray) -> list[str]:
-    """The groups a look belongs to: 'dark', 'high gloss', '<param> low' / '<param> high' (unit < 0.1 / > 0.9).
+    """The groups a look belongs to: 'dark', the product's own (Product.buckets: 'high gloss'), '<param> low' /
+    '<param> high' (unit < 0.1 / > 0.9).
 
     Wrapping parameters (hue) have no extremes. A look in none of them is 'other'.
     """
     found = ["dark"] if is_dark(spec.renderer, values) else []
-    if "gloss" in spec.modelled and values["gloss"] > GLOSS_HIGH:
-        found.append("high gloss")
+    found += [label for label, (name, above) in get_product(spec.renderer).buckets.items()
+              if name in spec.modelled and values[name] > above]
     for param, u in zip(spec.modelled_params, np.asarray(unit, np.float64)):
         if not param.wraps and u < EXTREME:
             found.append(f"{param.name} low")
@@ -383,16 +383,17 @@ def standard_error(values: np.ndarray) -> float | None:
 
 def colour_errors(spec: RendererSpec, rows: list[dict], method: str) -> dict | None:
     """The median |error| of a method's makeup colour in 8-bit steps, red, green and blue pooled, over all looks and
-    over those whose true opacity is >= OPAQUE (where the colour shows); None for a spec that does not model all
-    four."""
-    if not {"opacity", *COLOUR} <= set(spec.modelled):
+    over those whose true coverage (Product.coverage: the opacity) is >= OPAQUE (where the colour shows); None for a
+    spec that does not model it and the colour."""
+    coverage = get_product(spec.renderer).coverage
+    if not coverage or not {coverage, *COLOUR} <= set(spec.modelled):
         return None
 
     def pooled(chosen):
         errors = [row["methods"][method]["raw_error"][c] for row in chosen for c in COLOUR]
         return float(np.median(errors)) if errors else None
 
-    opaque = [row for row in rows if row["truth"]["opacity"] >= OPAQUE]
+    opaque = [row for row in rows if row["truth"][coverage] >= OPAQUE]
     return {"all": pooled(rows), "opaque": pooled(opaque), "opaque_looks": len(opaque)}
 
 

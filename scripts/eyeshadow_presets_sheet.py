@@ -25,7 +25,7 @@ def caption(text: str, width: int) -> np.ndarray:
 
 def main() -> None:
     """Render the presets in the file's order, `columns` a row, each above its caption."""
-    from blender_addon.renderers.eyeshadow import render_eyeshadow
+    from blender_addon.renderers.product_eyeshadow import render_eyeshadow
     from vto_core.imageio import write_image
     from vto_core.presets import PRESET_DIR
 

@@ -12,7 +12,7 @@ import numpy as np
 
 def main() -> None:
     """Render the sheet: one row per (lighting, look), one column per source."""
-    from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.renderers.product_lipstick import render_lipstick
     from vto_core.imageio import write_image
     from vto_core.presets import load_presets
 

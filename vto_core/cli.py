@@ -9,6 +9,21 @@ import sys
 import warnings
 
 from .errors import VtoError
+from .products import PRODUCTS, get_product, product_list
+
+
+def either(words) -> str:
+    """Words as a help text lists the alternatives: "lips, hair or eyelids" ("" for none)."""
+    words = list(dict.fromkeys(words))
+    return ", ".join(words[:-1]) + " or " + words[-1] if len(words) > 1 else "".join(words)
+
+
+def products_that(ability: str, can: bool = True) -> str:
+    """The declared products whose kind can (or, with can=False, cannot) `ability` (a Kind field: "tryon",
+    "lightings", ...), as a help text lists them: "lipstick or eyeshadow"; "no product" where none."""
+    products = [p for p in PRODUCTS.values() if bool(getattr(p.kind, ability)) is can]
+    return product_list(products) if products else "no product"
+
 
 # command -> (module, function, one-line help). Modules load lazily so `vto spec`
 # needs neither bpy nor torch. Modules under ADDON_PACKAGE are the add-on's: run() looks them up in the
@@ -25,8 +40,10 @@ COMMANDS = {
     "train": ("training.cli", "cmd_train", "train the imitator or the encoder (needs torch)"),
     "export": ("training.cli", "cmd_export", "export an encoder run to ONNX"),
     "scene-params": ("blender_addon.renderers.scene_params", "cmd_scene_params",
-                     "list which lipstick group inputs visibly change a user's scene (needs bpy)"),
-    "tryon": ("blender_addon.renderers.commands", "cmd_tryon", "draw a lipstick onto a portrait's lips (needs bpy)"),
+                     f"list which {get_product('lipstick').group_text} inputs visibly change a user's scene "
+                     "(needs bpy)"),
+    "tryon": ("blender_addon.renderers.commands", "cmd_tryon",
+              f"draw a product ({products_that('tryon')}) onto a portrait (needs bpy)"),
     "match": ("pipeline.match", "cmd_match", "estimate a renderer's parameters from a reference image"),
     "batch": ("blender_addon.matching.batch", "cmd_batch",
               "estimate a folder of product photos: median presets, an asset library, a contact sheet"),
@@ -56,7 +73,6 @@ def add_spec_args(parser: argparse.ArgumentParser) -> None:
 def cmd_spec(argv: list[str]) -> int:
     """vto spec RENDERER [--params a,b]."""
     from .products import get_spec
-    from .visibility import below_bar
 
     parser = ArgumentParser(prog="vto spec", description=COMMANDS["spec"][2])
     add_spec_args(parser)
@@ -65,7 +81,6 @@ def cmd_spec(argv: list[str]) -> int:
     out = spec.to_dict()
     out["vector_order"] = list(spec.modelled)
     out["left_out"] = spec.left_out()
-    out["below_visibility_bar"] = {k: v for k, v in below_bar(spec.renderer).items() if k in spec.modelled}
     print(json.dumps(out, indent=1))
     return 0
 

@@ -13,23 +13,17 @@ from .specs import ParamSpec
 VISIBLE_RATIO = 3.0  # the change must stand this far above seed-to-seed noise (4x4 block means)
 # The look each parameter is measured on: the product's look (lipstick fully on); inputs that only act on a layer get
 # that layer where the product has layers (flakes for the sparkle inputs, a glossy coat, gloss at its 75th percentile,
-# for its roughness; a pearl shimmer for the shimmer's roughness and tint). Parameters modelled although below the bar
-# are the product's below_bar (`vto spec` names them).
+# for its roughness; a pearl shimmer for the shimmer's roughness and tint). A modelled parameter stands above the bar;
+# one under it is left out of the spec, with its measured ratio as the reason (`vto spec` names it in "left_out").
 _CONTEXT = {"sparkle": {"sparkle_density": 0.5, "sparkle_intensity": 0.75}, "gloss_roughness": {"gloss": 2.0},
             "shimmer_": {"shimmer": 0.75}}
-
-
-def below_bar(renderer: str) -> dict[str, str]:
-    """The modelled parameters that stay under VISIBLE_RATIO, each with its measured ratio and why."""
-    return {name: f"visibility {ratio:.2f} < {VISIBLE_RATIO:g}: {why}" for name, (ratio, why) in
-            get_product(renderer).below_bar.items()}
 
 
 def measurement_look(renderer: str, name: str) -> dict[str, float]:
     """The parameter values (besides `name`) a visibility measurement of `name` starts from."""
     context = next((values for prefix, values in _CONTEXT.items() if name.startswith(prefix)), {})
     product = get_product(renderer)
-    return {**product.look, **(context if product.layer_looks else {})}
+    return {**product.look, **(context if product.kind.layer_looks else {})}
 
 
 def quartile_values(param: ParamSpec) -> tuple[float, float]:

@@ -19,7 +19,7 @@ import bpy
 import numpy as np
 
 from vto_core.dataset import write_text_atomic
-from vto_core.products import LIPSTICK, Product
+from vto_core.products import Product
 
 from ..renderers.products import blender_side
 
@@ -31,15 +31,12 @@ def catalog_path(product: Product) -> str:
     return f"Match from photo/{product.label}"
 
 
-CATALOG_PATH = catalog_path(LIPSTICK)
-
-
-def catalog_id(path: str = CATALOG_PATH) -> str:
+def catalog_id(path: str) -> str:
     """A stable catalog UUID for `path` (the same on every run, so reruns keep the Asset Browser's catalog)."""
     return str(uuid.uuid5(uuid.NAMESPACE_URL, f"vto-match/{path}"))
 
 
-def write_catalogs(folder: Path, path: str = CATALOG_PATH) -> str:
+def write_catalogs(folder: Path, path: str) -> str:
     """Write blender_assets.cats.txt (version 1, one catalog) into `folder`; returns the catalog's UUID."""
     cid = catalog_id(path)
     write_text_atomic(folder / CATALOG_FILE, "# Asset catalogs of `vto batch` (Blender's format).\n\nVERSION 1\n\n"
@@ -58,7 +55,7 @@ def set_preview(material: bpy.types.Material, image: np.ndarray) -> None:
 
 
 def write_library(path: Path, products: dict[str, tuple[dict[str, float], np.ndarray, list[str]]],
-                  description: str = "", product: Product = LIPSTICK) -> dict[str, str]:
+                  description: str, product: Product) -> dict[str, str]:
     """Write the asset library of `product` (a material product) at `path`: preset -> (values, preview, extra tags);
     returns preset -> material name.
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 
-from vto_core.cli import ArgumentParser
+from vto_core.cli import ArgumentParser, either, products_that
 from vto_core.dataset import DEFAULT_RES, DEFAULT_SAMPLES
 from vto_core.errors import VtoError
-from vto_core.products import get_product, product_names
+from vto_core.products import PRODUCTS, get_product, product_names
 
 
 def _launcher() -> list[str]:
@@ -24,16 +24,16 @@ def _launcher() -> list[str]:
     return [sys.executable, "-m", "vto_core.cli"]
 
 
-def _user_scene() -> str | None:
-    """The open .blend's active scene if a material of it uses the lipstick group (else the default scene)."""
+def _user_scene(product) -> str | None:
+    """The open .blend's active scene if a material of it uses `product`'s group (else the default scene)."""
     import bpy
 
-    from ..renderers.lipstick import makeup_nodes
+    from ..renderers.products import blender_side
 
     if not bpy.data.filepath:
         return None
     scene = bpy.context.scene
-    return scene.name if scene is not None and makeup_nodes(scene) else None
+    return scene.name if scene is not None and blender_side(product).scene_nodes(scene) else None
 
 
 def cmd_dataset(argv: list[str]) -> int:
@@ -58,8 +58,9 @@ def cmd_dataset(argv: list[str]) -> int:
                                                           "'auto' with --blend: those that visibly change the scene")
     parser.add_argument("--sensitivity", action="store_true", help="also render R(X, g'_j) for each modelled j")
     parser.add_argument("--no-source", action="store_true",
-                        help="write no source image X (lipstick: render none): half the renders of a look, for "
-                             "encoder data trained with the graphics loss only (the imitator needs X)")
+                        help=f"write no source image X ({products_that('renders_source')}: render none): half the "
+                             "renders of a look, for encoder data trained with the graphics loss only (the imitator "
+                             "needs X)")
     parser.add_argument("--uniform-ratio", type=float, default=0.5, help="share of uniform draws vs the preset fit")
     parser.add_argument("--preset-kernel", type=float, default=0.0,
                         help="0: the preset fit is one normal on the presets (the paper's); above 0, a normal of this "
@@ -74,23 +75,28 @@ def cmd_dataset(argv: list[str]) -> int:
     parser.add_argument("--uniform-params", default="",
                         help="comma-separated parameters the uniform draws spread (default: all); the others come "
                              "from a preset draw, so a colour drawn anywhere is worn with a finish products have")
-    parser.add_argument("--source-folder", default=None, help="hair: photos with <name>_mask beside them")
+    parser.add_argument("--source-folder", default=None,
+                        help=f"{products_that('photo_is_own_source')}: photos with <name>_mask beside them")
     parser.add_argument("--looks-per-source", type=int, default=1,
-                        help="hair, default scene: this many consecutive looks share one source render (the stage "
-                             "costs ~7 ms a look, a hair render ~1 s)")
+                        help=f"{products_that('shared_sources')}, default scene: this many consecutive looks share "
+                             "one source render (hair's stage costs ~7 ms a look, a hair render ~1 s)")
     parser.add_argument("--masks", action="store_true",
-                        help="lipstick and eye shadow, default scene: also write each look's lips or lid mask (what "
-                             "a colour imitator reads; hair datasets always hold their hair mask)")
-    parser.add_argument("--blend", default=None, help="lipstick: a .blend whose active scene uses the VTO Lipstick group")
+                        help=f"{products_that('masks')}, default scene: also write each look's "
+                             f"{either(p.region for p in PRODUCTS.values() if p.kind.masks)} mask (what a colour "
+                             f"imitator reads; {products_that('masks', False)} datasets always hold their mask)")
+    parser.add_argument("--blend", default=None,
+                        help=f"{products_that('user_scenes')}: a .blend whose active scene uses the product's group ("
+                             f"{either(p.group_text for p in PRODUCTS.values() if p.kind.user_scenes)})")
     parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
-                        help="lipstick and eye shadow, default scene: portrait (a frontal key, neutral light, metered "
-                             "exposure; the default) or wide (any HDRI, any rotation)")
+                        help=f"{products_that('lightings')}, default scene: portrait (a frontal key, neutral light, "
+                             "metered exposure; the default) or wide (any HDRI, any rotation)")
     parser.add_argument("--vary", default="", help="comma-separated unmodelled inputs to draw uniformly over their "
                                                     "ranges per look (e.g. gloss_roughness), so the encoder learns to "
                                                     "look past them")
     parser.add_argument("--photos", default=None,
-                        help="lipstick: try each look on a portrait of this folder (its faces.json's train split "
-                             "where it has one) and write it as Match reads the photo, not on the default scene")
+                        help=f"{products_that('photo_datasets')}: try each look on a portrait of this folder (its "
+                             "faces.json's train split where it has one) and write it as Match reads the photo, not "
+                             "on the default scene")
     parser.add_argument("--workers", type=int, default=1, help="Blender processes on this machine")
     parser.add_argument("--restart-every", type=int, default=500, help="samples per worker process before a restart")
     parser.add_argument("--worker", default=None, help=argparse.SUPPRESS)
@@ -103,10 +109,11 @@ def cmd_dataset(argv: list[str]) -> int:
         from ..blendfile import open_blend
 
         open_blend(args.blend)
-    user_scenes = get_product(args.renderer).user_scenes
-    scene = _user_scene() if user_scenes else None
+    user_scenes = get_product(args.renderer).kind.user_scenes
+    scene = _user_scene(get_product(args.renderer)) if user_scenes else None
     if args.blend and user_scenes and scene is None:
-        raise VtoError(f"{args.blend}: no material of its active scene uses the 'VTO Lipstick' node group")
+        raise VtoError(f"{args.blend}: no material of its active scene uses the "
+                       f"{get_product(args.renderer).group_text}")
     params = args.params.split(",") if args.params else None
     if args.params == "auto":
         if scene is None:
@@ -116,7 +123,7 @@ def cmd_dataset(argv: list[str]) -> int:
         params = [row["name"] for row in visible_parameters(bpy.data.scenes[scene], args.res, args.samples)
                   if row["visible"]]
         if not params:
-            raise VtoError(f"no lipstick input visibly changes {args.blend}: nothing to model")
+            raise VtoError(f"no {args.renderer} input visibly changes {args.blend}: nothing to model")
     shard = parse_shard(args.shard) if args.shard else shard_from_env()
     job = DatasetJob(args.renderer, args.out, args.n, args.seed, args.res, args.samples, params, args.sensitivity,
                      args.uniform_ratio, args.source_folder, scene, args.lighting, not args.no_source,

@@ -22,10 +22,9 @@ from vto_core.dataset import (DEFAULT_RES, DEFAULT_SAMPLES, FORMAT_VERSION, Samp
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import COLOUR, ParamSampler
-from vto_core.products import PRODUCTS, Product, get_product, get_spec
+from vto_core.products import PRODUCTS, Product, get_product, get_spec, product_list
 from vto_core.specs import RendererSpec
 
-from ..renderers.lipstick import linked_inputs, scene_values
 from ..renderers.cycles import sample_setting
 from ..renderers.products import blender_side, check_lighting
 
@@ -113,28 +112,30 @@ class DatasetJob:
             if param is None or name in self.spec.modelled or not np.isfinite(param.high):
                 raise VtoError(f"--vary takes unmodelled {self.renderer} inputs with a finite range, got '{name}'")
         if self.looks_per_source < 1 or (self.looks_per_source > 1 and (
-                not product.shared_sources or self.source_folder is not None)):
-            raise VtoError(f"--looks-per-source takes a count >= 1, above 1 for the default hair scene only, got "
+                not product.kind.shared_sources or self.source_folder is not None)):
+            shared = product_list(p for p in PRODUCTS.values() if p.kind.shared_sources)
+            raise VtoError(f"--looks-per-source takes a count >= 1, above 1 for the default {shared} scene only, got "
                            f"{self.looks_per_source}")
-        if self.masks and (not product.masks or self.scene is not None):
-            raise VtoError("--masks writes the default lips or eye scene's region mask (hair datasets always have "
-                           "theirs)")
+        if self.masks and (not product.kind.masks or self.scene is not None):
+            masked = product_list(p for p in PRODUCTS.values() if p.kind.masks)
+            raise VtoError(f"--masks writes the region mask of the default {masked} scene (the others' datasets "
+                           "always have theirs)")
         if self.sensitivity and not self.source_images:
             raise VtoError("--sensitivity renders are for the imitator, which needs the source images: drop --no-source")
         if self.photos is not None:
             from .photo_looks import training_faces
 
-            if (not product.photo_datasets or self.scene is not None or self.sensitivity or self.masks
+            if (not product.kind.photo_datasets or self.scene is not None or self.sensitivity or self.masks
                     or self.lighting is not None):
-                tried = ", ".join(p.name for p in PRODUCTS.values() if p.photo_datasets)
+                tried = ", ".join(p.name for p in PRODUCTS.values() if p.kind.photo_datasets)
                 raise VtoError(f"--photos tries {tried} looks on portraits in their own light: not with --blend, "
                                "--lighting, --sensitivity or --masks")
             if not Path(self.photos).is_dir():
                 raise VtoError(f"--photos {self.photos} is not a folder")
             training_faces(self.photos)  # refuses a folder with nothing to train on
         check_lighting(product, self.lighting, user_scene=self.scene is not None)
-        if product.lightings and self.scene is None:
-            from ..renderers.scene_lips import DEFAULT_LIGHTING
+        if product.kind.lightings and self.scene is None:
+            from ..renderers.scene_build import DEFAULT_LIGHTING
 
             self.lighting = self.lighting or DEFAULT_LIGHTING
 
@@ -180,8 +181,9 @@ class DatasetJob:
             settings["res"] = self.res or [scene.render.resolution_x * scene.render.resolution_percentage // 100,
                                            scene.render.resolution_y * scene.render.resolution_percentage // 100]
             settings["samples"] = self.samples or (getattr(*samples_at) if samples_at else None)
-            settings["fixed_values"] = {k: v for k, v in scene_values(scene).items() if k not in self.spec.modelled}
-            settings["linked_inputs"] = linked_inputs(scene)
+            side = blender_side(self.product)
+            settings["fixed_values"] = {k: v for k, v in side.scene_values(scene).items() if k not in self.spec.modelled}
+            settings["linked_inputs"] = side.linked_inputs(scene)
             view = scene.view_settings
             images = (f"16-bit PNG, display {scene.display_settings.display_device} through the scene's view transform "
                       f"'{view.view_transform}', look '{view.look}', exposure {view.exposure:g}, gamma {view.gamma:g}")
@@ -221,18 +223,18 @@ class SampleRenderer:
             from .photo_looks import PhotoLooks
 
             self.photo_looks = PhotoLooks(job.photos, job.res, job.samples, job.seed, job.product)
-        if job.product.photo_is_own_source and job.source_folder:
-            from ..renderers.hair import photo_sources
-
-            self.photos = photo_sources(job.source_folder)
-        if job.product.user_scenes and job.scene:
+        if job.product.kind.photo_is_own_source and job.source_folder:
+            self.photos = blender_side(job.product).photo_sources(job.source_folder)
+        if job.product.kind.user_scenes and job.scene:
             self.user_scene = bpy.data.scenes.get(job.scene)
             if self.user_scene is None:
                 raise VtoError(f"the open .blend has no scene '{job.scene}'")
-            self.own_values = scene_values(self.user_scene)  # unmodelled inputs stay at these
-            if "opacity" not in self.own_values:
-                raise VtoError("the group's Opacity input is driven by a link: the bare source (opacity 0) cannot be "
-                               "rendered")
+            self.own_values = blender_side(job.product).scene_values(self.user_scene)  # unmodelled ones stay
+            coverage = job.product.coverage
+            if coverage not in self.own_values:
+                label = job.spec.by_name[coverage].socket
+                raise VtoError(f"the group's {label} input is driven by a link: the bare source ({coverage} 0) cannot "
+                               "be rendered")
 
     def render(self, index: int) -> int:
         """Render and write sample `index`; returns the number of renders R(X, .) it took."""
@@ -276,7 +278,7 @@ class SampleRenderer:
         except BaseException:
             writer.abort()
             raise
-        return len(images) + (source_image is not None and job.product.renders_source)
+        return len(images) + (source_image is not None and job.product.kind.renders_source)
 
 
 def prepare_output(job: DatasetJob, indices=None) -> None:
@@ -303,7 +305,7 @@ def progress_bar(samples: int, renders_per_sample: int, quiet: bool = False):
 
 def renders_per_sample(job: DatasetJob) -> int:
     """R(X, .) renders each sample costs (lipstick also renders X, unless it is left out)."""
-    return 1 + (job.spec.size if job.sensitivity else 0) + (job.product.renders_source and job.source_images)
+    return 1 + (job.spec.size if job.sensitivity else 0) + (job.product.kind.renders_source and job.source_images)
 
 
 def run_in_process(job: DatasetJob, indices, limit: int | None = None, quiet: bool = False,

@@ -34,7 +34,7 @@ from ..shipped import photo_reader
 PHOTO_SUFFIXES = (".jpg", ".jpeg", ".png", ".tif", ".tiff")
 TRAINING_SPLIT = "train"  # faces.json's split that may be trained on; held_out and evaluation faces never are
 BLOCK = 32  # consecutive looks on one face: its regions are found and their bare renders made once per block
-FRAME_RENDER = 96  # px: the lips frame is rendered at this size, then read at the dataset's (smaller) size
+FRAME_RENDER = 96  # px: each region's frame is rendered at this size, then read at the dataset's (smaller) size
 BARE_SEED = 0  # Cycles seed of every face's bare render
 _VIEW_STREAM = 9
 
@@ -98,7 +98,7 @@ def match_read(photo: np.ndarray, target, view: CameraView, res: int, scratch: P
     """What Match reads of a made-up `photo` (H, W, 3) at `target`'s region (a renderers.tryon.PhotoRegion), seen
     through `view`: (res, res, 3) display. Only the part around the region (and the lips, beside which the light is
     read) is worked on."""
-    found, region = target.lips, target.region
+    found, region = target.found, target.region
     frame, size, _ = region_view(found, region)
     centre = frame @ np.array([size / 2, size / 2, 1.0])
     side = size * view.zoom
@@ -161,7 +161,7 @@ class PhotoLooks:
         target = targets[which]
         ratio, bares[which] = product_ratio(target, values, self.samples, index, bare=bares[which], bare_seed=BARE_SEED)
         view = camera_view(self.seed, index)
-        worn = on_photo(target.photo, target.lips, target.to_frame, ratio, values["opacity"])
+        worn = on_photo(target.photo, target.found, target.to_frame, ratio, values[self.product.coverage])
         render = match_read(worn, target, view, self.res, self.scratch)
         source = match_read(target.photo, target, view, self.res, self.scratch) if source_image else None
         notes = {"source": number, "face": self.faces[number].name, "view": view.__dict__}

@@ -1,6 +1,6 @@
 """Match from photo, the logic under the panel, the operator and `vto match --material`: plain functions, no UI.
 
-One call, `match_into_material` or `match_into_hair`, does everything in this order: resolve and load the model
+One call, `match_into_material` or `match_into_stage`, does everything in this order: resolve and load the model
 (cached per file), check that it estimates this renderer's spec, read the reference (file or image datablock, with
 an optional crop or mask), find the group nodes and refuse linked inputs, estimate (and refine where asked), and only
 then write the group's inputs. Every failure before the writes is a VtoError with one line, so nothing has changed.
@@ -34,7 +34,7 @@ import numpy as np
 
 from vto_core.errors import VtoError
 from vto_core.inference import EncoderSession, cached_session
-from vto_core.products import PRODUCTS, QUALITIES, Product, get_product, get_spec
+from vto_core.products import PRODUCTS, QUALITIES, Product, get_product, get_spec, layered_over_bare_skin
 from vto_core.specs import RendererSpec
 
 from ..renderers.products import blender_side
@@ -96,9 +96,14 @@ def material_product(material) -> Product | None:
     return next((p for p in PRODUCTS.values() if p.is_material and group_nodes(p, material)), None)
 
 
-def compositor_product() -> Product:
-    """The compositor stage product (hair colour): the Compositor's panel and `match_into_hair` write into it."""
-    return next(p for p in PRODUCTS.values() if not p.is_material)
+def compositor_products() -> list[Product]:
+    """The compositor stage products (hair colour), each with its match settings on the scene (stage_settings)."""
+    return [p for p in PRODUCTS.values() if not p.is_material]
+
+
+def stage_settings(scene, product: Product):
+    """`scene`'s stored Match settings of compositor product `product` (Scene.vto_<name>_match), or None."""
+    return getattr(scene, f"vto_{product.name}_match", None)
 
 
 def written_params(spec: RendererSpec) -> list:
@@ -179,6 +184,7 @@ def iter_compute(prepared: dict):
         reference.notes += [note] if note else []
     values = photo_values(spec, values)
     if prepared["quality"] != "FAST":
+        reference.notes += layered_over_bare_skin(get_product(spec.renderer))  # a layer where it reads bare skin
         with scratch_data():  # the default scenes the fit renders leave nothing in the artist's .blend
             values = yield from iter_fit_photo(spec, reference.region, encoder, prepared["quality"],
                                                others=(values,), photo=(reference.whole, (reference.regions or [None])[0]))
@@ -268,9 +274,11 @@ def match_into_material(material_name: str, settings: dict,
     return job.finish(drain(job.steps(), progress))
 
 
-def match_into_hair(scene, settings: dict, progress: Callable[[int], None] | None = None) -> dict:
-    """The hair look of the reference written into the hair compositor groups of `scene`; as match_into_material."""
-    job = MatchJob(compositor_product().name, settings, scene=scene)
+def match_into_stage(scene, settings: dict, product: Product, progress: Callable[[int], None] | None = None
+                     ) -> dict:
+    """The look of the reference written into compositor product `product`'s groups of `scene` (the hair's); as
+    match_into_material."""
+    job = MatchJob(product.name, settings, scene=scene)
     return job.finish(drain(job.steps(), progress))
 
 

@@ -4,8 +4,8 @@ OUT receives: estimates/<image>.json (one per photo, written atomically and reus
 model are unchanged), presets.json and presets.csv (the shipped presets' format: `vto render --params
 preset:NAME@OUT/presets.json` takes them), assets.blend with blender_assets.cats.txt (a material product, lipstick or
 eye shadow: one asset material per product with a rendered preview; hair has none, see blender_addon.datasets.assets),
-sheet.png (one row per product: its first photo | its preset tried on that photo's lips | a render of its preset) and
-report.json (products, their photos, and every photo skipped with the reason).
+sheet.png (one row per product: its first photo | its preset tried on that photo's face regions | a render of its
+preset) and report.json (products, their photos, and every photo skipped with the reason).
 
 The median is per parameter, in raw units; a wrapping parameter (hair hue) takes the circular median: the photo's
 value whose summed distance around the circle to the others is least.
@@ -255,7 +255,7 @@ def render_products(renderer: str, presets: dict, products: dict[str, list[Path]
 def sheet_cells(renderer: str, presets: dict, products: dict[str, list[Path]], args
                 ) -> tuple[dict[str, np.ndarray], dict[str, tuple[np.ndarray, np.ndarray]], dict[str, str]]:
     """What the sheet shows of each product's first photo: ({product: the photo as the encoder read it}, {product:
-    (the photo around its lips, its preset tried on them)} (renderers.tryon.tryon_view at --res px, at most
+    (the photo around its face regions, its preset tried on them)} (renderers.tryon.tryon_view at --res px, at most
     TRYON_SAMPLES samples), {product: why it has no try-on}). One photo is read at a time; hair, a photo with no
     face, or a try-on that fails leaves a product without a try-on, never failing the batch."""
     product = get_product(renderer)
@@ -263,7 +263,7 @@ def sheet_cells(renderer: str, presets: dict, products: dict[str, list[Path]], a
     for name, paths in products.items():
         reference = batch_reference(renderer, paths[0])
         references[name] = reference.image
-        if not product.tryon:
+        if not product.kind.tryon:
             missing[name] = no_tryon_line(product)
             continue
         try:
@@ -277,8 +277,8 @@ def sheet_cells(renderer: str, presets: dict, products: dict[str, list[Path]], a
 def contact_sheet(path: Path, references: dict[str, np.ndarray], renders: dict[str, np.ndarray], res: int,
                   tryons: dict[str, tuple[np.ndarray, np.ndarray]] | None = None) -> str:
     """One row per product: its first photo | its preset tried on it | the render of its preset, each res x res.
-    Where the product has a try-on (sheet_cells) the photo is shown around its lips as the try-on is (the two cells
-    differ only on the lips); else its reference resized, and the try-on cell is BLANK grey."""
+    Where the product has a try-on (sheet_cells) the photo is shown around its face regions as the try-on is (the two
+    cells differ only on the regions); else its reference resized, and the try-on cell is BLANK grey."""
     tryons = tryons or {}
     blank = np.full((res, res, 3), BLANK, np.float32)
     rows = [np.concatenate([*(tryons[name] if name in tryons else (at_size(references[name], res, res), blank)),
@@ -319,7 +319,7 @@ def cmd_batch(argv: list[str]) -> int:
     report["sheet_columns"] = ["photo", "try-on", "render"]
     report["sheet_no_tryon"] = no_tryon
     product = get_product(spec.renderer)
-    if product.asset_library:
+    if product.kind.asset_library:
         from ..datasets.assets import write_library
 
         library = {name: (presets[name], renders[name], []) for name in presets}

@@ -11,12 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
-from vto_core.cli import ArgumentParser
+from vto_core.cli import ArgumentParser, either, products_that
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.imageio import write_image
 from vto_core.photo.photo_reader import load_reference
-from vto_core.products import get_product
+from vto_core.products import PRODUCTS, get_product, product_list
 
 from ..renderers.products import blender_side
 from .match import match
@@ -33,12 +33,17 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
     With --material the estimate goes into that material's "VTO Lipstick" group inputs (blender_addon.matching.apply,
     the operator's code) and --save writes the .blend atomically; on any error the file is left as it was.
     """
+    materials = [p for p in PRODUCTS.values() if p.is_material]
+    regions = either(p.region for p in PRODUCTS.values())
+    own_source = products_that("photo_is_own_source")
     parser = ArgumentParser(prog="vto match", description="estimate a renderer's parameters from a reference image")
     parser.add_argument("--model", default=None, help="an encoder exported with `vto export` (with --material: "
-                                                      "default the shipped lipstick encoder)")
+                                                      "default the shipped encoder of the material's product, "
+                                                      f"{product_list(materials)})")
     parser.add_argument("--image", required=True, help="the reference image")
-    parser.add_argument("--source", default=None, help="the reference's source: a default-scene seed, or a hair "
-                                                      "photo with a mask (default: the image itself, for hair)")
+    parser.add_argument("--source", default=None, help="the reference's source: a default-scene seed, or a "
+                                                      f"{own_source} photo with a mask (default: the image itself, "
+                                                      f"for {own_source})")
     parser.add_argument("--refine", default="none", help="none (encoder only), imitator:K (K gradient steps through "
                                                          "the imitator, needs torch), render:B (a fit through the "
                                                          "renderer, B renders; CMA-ES with --objective ssim) or cma:B "
@@ -49,29 +54,33 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="Cycles seed of every refinement render")
     parser.add_argument("--objective", default="mse", choices=sorted(OBJECTIVES), help="render search: mse or 1-SSIM")
     parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
-                        help="lipstick: the default lips scene's lighting of --source (default portrait)")
+                        help=f"{products_that('lightings')}: the default scene's lighting of --source (default "
+                             "portrait)")
     parser.add_argument("--start", default="encoder", choices=["encoder", "mean"],
                         help="refinement starts at the encoder's estimate or at the mean preset")
     parser.add_argument("--out-params", default=None, help="JSON file for the estimate (takes `vto render --params`)")
-    parser.add_argument("--material", default=None, help="write the estimate into this material's VTO Lipstick group "
-                                                         "inputs (of --blend FILE, or the open .blend)")
+    parser.add_argument("--material", default=None, help="write the estimate into the inputs of this material's "
+                                                         f"group ({either(p.group_text for p in materials)}) (of "
+                                                         "--blend FILE, or the open .blend)")
     parser.add_argument("--blend", default=None, help="with --material: the .blend to open (default: the open one)")
     parser.add_argument("--save", action="store_true", help="with --material: save the .blend (atomically)")
     parser.add_argument("--quality", default="fast", choices=["fast", "better", "best"],
                         help="the panel's choice: fast (the encoder, milliseconds), better or best (its estimate "
-                             "fitted through the renderer to the colour of the photo's lips or hair; seconds)")
+                             f"fitted through the renderer to the colour of the photo's {regions}; seconds)")
     parser.add_argument("--crop", default=None, help="x,y,w,h of the reference to use, from the top-left, in pixels "
                                                      "or fractions")
-    parser.add_argument("--mask", default=None, help="a mask image: of the lips (the reference is framed around them "
-                                                     "as the default scene frames its lips) or of the hair")
+    framed = [p for p in PRODUCTS.values() if p.face_regions]
+    parser.add_argument("--mask", default=None, help=f"a mask image of the product's region ({regions}; "
+                                                     f"{product_list(framed)}: the reference is framed around it as "
+                                                     "the default scene frames it)")
     parser.add_argument("--whole-image", action="store_true",
-                        help="take the image (or crop) as it is instead of finding the lips or the hair in it")
+                        help=f"take the image (or crop) as it is instead of finding the {regions} in it")
     parser.add_argument("--preview", default=None,
-                        help="lipstick: an image of the photo | the estimate tried on the photo | the estimate on the "
-                             "default lips (.png or .jpg)")
+                        help=f"{products_that('tryon')}: an image of the photo | the estimate tried on the photo | "
+                             "the estimate on the default scene (.png or .jpg)")
     parser.add_argument("--keep-light", action="store_true",
-                        help="lipstick: read the photo's colours as they are, its light included (default: the light "
-                             "is read from the skin beside the lips and taken out)")
+                        help="read the photo's colours as they are, its light included (default: the light is read "
+                             "from the face's skin and taken out)")
     args = parser.parse_args(argv)
     if args.material is None:
         for option in ("blend", "save"):
@@ -114,7 +123,7 @@ def preview(result: dict, image_path: str, samples: int, seed: int) -> np.ndarra
     """(PREVIEW_SIZE, 3 PREVIEW_SIZE, 3): the photo around its lips | the estimate tried on it | the estimate on the
     default lips (source 0); VtoError for hair, or a photo without a face to try it on."""
     product = get_product(result["renderer"])
-    if not product.tryon:
+    if not product.kind.tryon:
         raise VtoError(f"--preview shows a product tried on the photo: {product.name} has no try-on yet")
     side = blender_side(product)
     panels = list(side.tryon_view(load_reference(image_path), result["params"], PREVIEW_SIZE, samples, seed))

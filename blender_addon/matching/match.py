@@ -23,7 +23,7 @@ import numpy as np
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.inference import EncoderSession
-from vto_core.products import QUALITIES, get_product, get_spec
+from vto_core.products import QUALITIES, get_product, get_spec, layered_over_bare_skin
 
 from ..renderers.products import blender_side, check_lighting
 from .colour_fit import fit_photo_fast
@@ -71,15 +71,20 @@ class SourceRenderer:
 
     def source_image(self) -> np.ndarray:
         """X as the imitator sees it (the dataset's 'source'): the bare lips (opacity 0), or the hair source."""
-        self.renders += get_product(self.spec.renderer).renders_source
+        self.renders += get_product(self.spec.renderer).kind.renders_source
         return self.bound.source_image()
 
 
-def own_source(product, image_path: Path) -> str | None:
-    """The photo, where it is its own source: a product that says so (hair) and a '<name>_mask' image beside it."""
-    if not product.photo_is_own_source:
+def own_mask(product, image_path: Path) -> str | None:
+    """The '<name>_mask' image beside the photo, where a photo is its own source (its kind's photo_is_own_source)."""
+    if not product.kind.photo_is_own_source:
         return None
-    return str(image_path) if any(image_path.parent.glob(image_path.stem + "_mask.*")) else None
+    return next((str(mask) for mask in sorted(image_path.parent.glob(image_path.stem + "_mask.*"))), None)
+
+
+def own_source(product, image_path: Path) -> str | None:
+    """The photo, where it is its own source: its kind says so (a compositor stage) and its mask is beside it."""
+    return str(image_path) if own_mask(product, image_path) else None
 
 
 def match(model: str, image_path: str, source=None, refine: str = "none", imitator: str | None = None,
@@ -120,11 +125,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
     spec = session.spec
     product = get_product(spec.renderer)
     if source is None and mask_path is None and crop is None:
-        beside = own_source(product, Path(image_path))
-        if beside:
-            from ..renderers.hair import mask_path_for
-
-            mask_path = str(mask_path_for(Path(image_path)))
+        mask_path = own_mask(product, Path(image_path))
     settings = {"image_path": image_path, "crop": crop, "mask_path": mask_path,
                 "find_region": find_region and source is None,
                 "neutral_light": neutral_light and source is None}
@@ -134,9 +135,9 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
     result = {"renderer": spec.renderer, "params": values, "refined": False, "note": "", "notes": prepared.notes,
               "encoder_ms": 1000 * (time.perf_counter() - started)}
     turn = round(math.degrees(prepared.turn), 1)  # the face's roll the region was read upright from
-    if prepared.lips is not None:  # the region found ("lips", "eyelids": the first of each place read)
-        result[product.region] = {"how": prepared.lips.how, "box": list(prepared.lips.box),
-                                  "faces": prepared.lips.faces, "turn": turn, "views": len(prepared.images)}
+    if prepared.found is not None:  # the region found ("lips", "eyelids": the first of each place read)
+        result[product.region] = {"how": prepared.found.how, "box": list(prepared.found.box),
+                                  "faces": prepared.found.faces, "turn": turn, "views": len(prepared.images)}
     if prepared.hair is not None:
         result["hair"] = {"box": list(prepared.hair.box), "faces": prepared.hair.faces,
                           "share": round(float(prepared.hair.mask.mean()), 4), "turn": turn}
@@ -158,6 +159,7 @@ def match(model: str, image_path: str, source=None, refine: str = "none", imitat
                                       others=({k: values[k] for k in spec.modelled},),
                                       photo=(prepared.whole, (prepared.regions or [None])[0])),
                        renders.append)
+        result["notes"] = result["notes"] + layered_over_bare_skin(product)  # a layer where it reads bare skin
         result.update(params=spec.full_values(photo_values(spec, fitted)), refined=True, method=quality.lower(),
                       renders=renders[-1],
                       refine_ms=1000 * (time.perf_counter() - started))

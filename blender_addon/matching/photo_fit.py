@@ -71,7 +71,7 @@ def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
     real photos mostly Fast's (the lipstick model card). Lips: the sources are those of LIPS_POOL whose skin looks most
     like the photo's, toned so their skin shows the photo's skin colour (a scene whose light and skin tone are fitted,
     as far as the skin shows them; the bare lips follow the skin). Hair: its fit sources' hair regions, as rendered
-    (ProductRenderer.iter_fit_sources). photo: (the whole photo (H, W, 3), (FaceRegion, LipsFound) of the region
+    (ProductRenderer.iter_fit_sources). photo: (the whole photo (H, W, 3), (FaceRegion, RegionFound) of the region
     found in it, or None): a face's lips (lids) are fitted in the photo's own scene instead (blender_addon.matching.photo_scene_fit), from Fast's estimate (the last of
     `others`, else `start`). A generator: yields renders made so far (0 while the first fit of a session renders its
     lips sources); returns the fitted modelled values (raw, inside their ranges)."""
@@ -83,7 +83,7 @@ def iter_fit_photo(spec: RendererSpec, region: tuple[np.ndarray, np.ndarray], st
     table = product.fit.renders
     if quality not in table:
         raise VtoError(f"a photo fit's quality is {' or '.join(table)}, got '{quality}'")
-    if product.fits_in_photo_scene and photo is not None:
+    if product.kind.fits_in_photo_scene and photo is not None:
         from .photo_scene_fit import SCENE_FIT, iter_fit_photo_scene, scene_target
 
         target = scene_target(*photo, SCENE_FIT[quality][0])

@@ -26,6 +26,7 @@ import numpy as np
 from vto_core.colour import linear_to_srgb, srgb_to_linear
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
+from vto_core.products import get_product
 from vto_core.photo.tryon import RATIO_FLOOR, composite, feathered, worn_over_bare
 from vto_core.specs import RendererSpec
 
@@ -53,7 +54,7 @@ ROBUST_SCALE = 0.01
 
 
 def scene_target(photo: np.ndarray, found, n: int):
-    """The photo's region `found` ((FaceRegion, LipsFound) or None: the lips, the first lid read) ready to fit in its
+    """The photo's region `found` ((FaceRegion, RegionFound) or None: the lips, the first lid read) ready to fit in its
     own scene (blender_addon.renderers.tryon.PhotoRegion at n x n px), or None where it cannot be: no face's region (a
     close-up, a mask), one too small to render onto, or no skin beside it to tell the bare region's colour."""
     from vto_core.photo.face_reader import clean_photo
@@ -125,11 +126,11 @@ def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], qu
     if quality not in SCENE_FIT:
         raise VtoError(f"a fit in the photo's scene is {' or '.join(SCENE_FIT)}, got '{quality}'")
     renders = SCENE_FIT[quality][1]
-    layer = target.layer
+    layer, coverage = target.layer, get_product(spec.renderer).coverage
     predicted = bare_guess(target)
     scene = set_photo_region(target, samples, seed)
     set_bare(layer, predicted / target.cast)
-    bare = render_look(scene, spec.full_values({"opacity": 0.0}), layer)
+    bare = render_look(scene, spec.full_values({coverage: 0.0}), layer)
     yield 1
     soft = feathered(target.mask)
     if bare.shape[:2] != soft.shape:
@@ -153,9 +154,9 @@ def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], qu
         region = (target.mask > 0.5)[..., None]  # a bare render scales with the albedo on the region (its sheen too)
         albedo = under[region[..., 0]].mean(axis=0, dtype=np.float64) / target.cast
         set_bare(layer, albedo)
-        bare = render_look(scene, spec.full_values({"opacity": 0.0}), layer)
+        bare = render_look(scene, spec.full_values({coverage: 0.0}), layer)
         yield 3
-        share = bare_share(scene, layer, albedo, bare, {**fast, "opacity": 1.0})
+        share = bare_share(scene, layer, albedo, bare, {**fast, coverage: 1.0})
         made = 5
         yield made
     weights = (255.0 * np.sqrt(trust / max(float(trust.sum()), 1e-6)))[..., None]
@@ -173,10 +174,10 @@ def iter_fit_photo_scene(spec: RendererSpec, target, start: dict[str, float], qu
         ratio, prior = last[key], SCENE_PRIOR * (trial[:m] - unit)
         if share is not None:  # the bare region's albedo times exp(level): what it makes of each pixel scales
             level = (trial[m] - 0.5) * 2.0 * LEVEL_RANGE * layer.bare_spread
-            opacity = values["opacity"]
-            ratio = ratio + np.expm1(level) * ((1.0 - opacity) * region + opacity * share)
+            covered = values[coverage]
+            ratio = ratio + np.expm1(level) * ((1.0 - covered) * region + covered * share)
             prior = np.append(prior, SCENE_PRIOR * SIGMA * level / layer.bare_spread)
-        worn = np.clip(linear_to_srgb(composite(under, ratio, soft, values["opacity"])), 0.0, 1.0)  # as a photo is
+        worn = np.clip(linear_to_srgb(composite(under, ratio, soft, values[coverage])), 0.0, 1.0)  # as a photo is
         return np.concatenate([(robust(worn - target.frame, core) * weights).ravel(), prior])
 
     begin = unit if share is None else np.append(unit, 0.5)  # the level starts at the guess

@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 import os
 
-from vto_core.cli import ArgumentParser
+from vto_core.cli import ArgumentParser, either, products_that
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.imageio import write_image
@@ -21,13 +21,14 @@ def cmd_render(argv: list[str]) -> int:
     parser = ArgumentParser(prog="vto render", description="render one image with a renderer R(X, g)")
     parser.add_argument("renderer", choices=product_names())
     parser.add_argument("--params", default=None, help="JSON object, a JSON file, or preset:NAME")
-    parser.add_argument("--source", default="0", help="source seed, or (hair) a photo with <name>_mask beside it")
+    parser.add_argument("--source", default="0", help=f"source seed, or ({products_that('photo_is_own_source')}) a "
+                                                      "photo with <name>_mask beside it")
     parser.add_argument("--res", type=int, default=64)
     parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES)
     parser.add_argument("--seed", type=int, default=0, help="Cycles seed")
     parser.add_argument("--lighting", default=None, choices=["wide", "portrait"],
-                        help="lipstick, eye shadow: light the default scene's source as portraits are lit (a frontal "
-                             "key, neutral, metered; the default) or the wide way (any HDRI, any rotation)")
+                        help=f"{products_that('lightings')}: light the default scene's source as portraits are lit (a "
+                             "frontal key, neutral, metered; the default) or the wide way (any HDRI, any rotation)")
     parser.add_argument("--out", required=True, help="image file (.png, .exr, .jpg, .tif)")
     args = parser.parse_args(argv)
     values = parse_params(args.params, args.renderer)
@@ -53,15 +54,16 @@ def cmd_tryon(argv: list[str]) -> int:
 
     from ..renderers.products import blender_side
 
-    parser = ArgumentParser(prog="vto tryon", description="draw a product (a lipstick, an eye shadow) onto a portrait")
-    parser.add_argument("renderer", choices=[p.name for p in PRODUCTS.values() if p.tryon])
+    tried_on = [p for p in PRODUCTS.values() if p.kind.tryon]
+    parser = ArgumentParser(prog="vto tryon", description=f"draw a product ({products_that('tryon')}) onto a portrait")
+    parser.add_argument("renderer", choices=[p.name for p in tried_on])
     parser.add_argument("--image", required=True, help="a portrait (any format the add-on reads)")
     parser.add_argument("--params", required=True,
                         help="a preset's name, preset:NAME, a JSON object or file (vto match's output too)")
     parser.add_argument("--out", required=True, help="image file (.png, .jpg, .tif, .exr)")
     parser.add_argument("--crop", type=int, nargs="?", const=64, default=None,
-                        help="write the region (the lips, the right eye's lid) framed as Match frames it, N x N px (default 64), "
-                        "not the whole photo")
+                        help=f"write the product's region ({either(p.region for p in tried_on)}; the first where it "
+                             "has several) framed as Match frames it, N x N px (default 64), not the whole photo")
     parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES)
     parser.add_argument("--seed", type=int, default=0, help="Cycles seed: a run is repeatable byte for byte")
     args = parser.parse_args(argv)

@@ -16,6 +16,8 @@ from ..compat import compositor_idname, enable_nodes, uses_nodes
 BUILDER_VERSION = 3
 VERSION_KEY = "vto_builder_version"
 SOCKET_MAX = 3.0e38  # sockets are float32: the top of an unbounded range
+SHADER_TREE = "ShaderNodeTree"
+SRGB_GROUP_NAME = "VTO sRGB 255 to Linear"
 
 
 class Builder:
@@ -184,3 +186,39 @@ def layer_material(name: str, group: bpy.types.NodeTree, spec: RendererSpec, bar
     links.new(layer.outputs[0], output.inputs["Surface"])
     bare_node.location, layer.location, output.location = (-300, 0), (0, 0), (250, 0)
     return material
+
+
+def _build_srgb(group: bpy.types.NodeTree) -> None:
+    """R, G, B in [0,255] (sRGB) -> linear Color, with the exact IEC 61966-2-1 curve per channel."""
+    for name in ("R", "G", "B"):
+        socket = group.interface.new_socket(name, in_out="INPUT", socket_type="NodeSocketFloat")
+        socket.min_value, socket.max_value = 0.0, 255.0
+    group.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+    b = Builder(group, "Shader")
+    inputs = b.node("NodeGroupInput")
+    combine = b.node("CombineColor")
+    for index in range(3):
+        encoded = b.math("DIVIDE", inputs.outputs[index], 255.0, clamp=True)
+        low = b.math("DIVIDE", encoded, 12.92)
+        high = b.math("POWER", b.math("DIVIDE", b.math("ADD", encoded, 0.055), 1.055), 2.4)
+        is_low = b.math("LESS_THAN", encoded, 0.04045)
+        mix = b.node("Mix", data_type="FLOAT")
+        b.link(is_low, mix.inputs["Factor"])
+        b.link(high, mix.inputs["A"])
+        b.link(low, mix.inputs["B"])
+        b.link(mix.outputs["Result"], combine.inputs[index])
+    b.link(combine.outputs[0], b.node("NodeGroupOutput").inputs[0])
+
+
+def srgb_group() -> bpy.types.NodeTree:
+    """Get or create the sRGB [0,255] -> linear colour helper group."""
+    return get_or_create_group(SRGB_GROUP_NAME, SHADER_TREE, _build_srgb)
+
+
+def srgb_colour(b: Builder, gin, names: tuple[str, str, str], label: str):
+    """A node of the sRGB helper group reading the group inputs `names` (R, G, B in [0, 255]); its output [0] is the
+    linear colour."""
+    colour = b.group_node(srgb_group(), label)
+    for index, name in enumerate(names):
+        b.link(gin[name], colour.inputs[index])
+    return colour

@@ -6,8 +6,8 @@ import bpy
 
 from vto_core.products import get_spec
 
-from .node_utils import Builder, add_spec_inputs, get_or_create_group, layer_material
-from .nodes_lipstick import SHADER_TREE, srgb_group
+from .face_layer import LayerGroup, layer_colours, sparkle_flakes
+from .node_utils import Builder
 
 GROUP_NAME = "VTO Eye Shadow"
 LID_ATTRIBUTE = "vto_lid"  # 0 at the lash line, 1 at the brow's lower edge
@@ -23,8 +23,6 @@ END_MIN, END_MAX = 0.15, 0.65  # the share of the lid's half length over which t
 # Sparkle flakes live in the object's own space, sized so that a flake covers about a pixel at the 64 px training
 # size on the default eye (2 units across the frame): smaller flakes are invisible to an encoder.
 SPARKLE_CELLS_PER_UNIT = 16.0
-SPARKLE_RADIUS_MIN, SPARKLE_RADIUS_MAX = 0.15, 0.5  # flake radius in cell units over Sparkle Size [0, 1]
-SPARKLE_ROUGHNESS = 0.15
 
 
 def _affine(b: Builder, value, scale: float, offset: float):
@@ -76,43 +74,8 @@ def _coverage(b: Builder, gin):
     return b.math("MULTIPLY", b.math("MULTIPLY", band.outputs[0], along), gin["Opacity"], clamp=True)
 
 
-def _sparkle(b: Builder, gin, colour):
-    """(flake weight, the flakes' BSDF): Voronoi cells on the object's xy plane (the default lid faces +z); a cell
-    holds a flake when its random value < density; a flake is a tilted coloured mirror."""
-    coords = b.node("TexCoord")
-    cells = b.node("TexVoronoi", label="Sparkle Cells", voronoi_dimensions="2D")  # 3D cells: the surface misses most
-    b.link(coords.outputs["Object"], cells.inputs["Vector"])
-    b.link(SPARKLE_CELLS_PER_UNIT, cells.inputs["Scale"])
-    radius = b.node("MapRange", label="Sparkle Radius")
-    b.link(gin["Sparkle Size"], radius.inputs["Value"])
-    b.link(SPARKLE_RADIUS_MIN, radius.inputs["To Min"])
-    b.link(SPARKLE_RADIUS_MAX, radius.inputs["To Max"])
-    cell_random = b.node("SeparateColor")
-    b.link(cells.outputs["Color"], cell_random.inputs[0])
-    is_flake = b.math("MULTIPLY", b.math("LESS_THAN", cell_random.outputs[0], gin["Sparkle Density"]),
-                      b.math("LESS_THAN", cells.outputs["Distance"], radius.outputs[0]))
-    tilt = b.node("VectorMath", operation="MULTIPLY_ADD")
-    b.link(cells.outputs["Color"], tilt.inputs[0])
-    b.link((1.2, 1.2, 1.2), tilt.inputs[1])
-    b.link((-0.6, -0.6, -0.6), tilt.inputs[2])
-    tilted = b.node("VectorMath", operation="ADD")
-    b.link(b.node("NewGeometry").outputs["Normal"], tilted.inputs[0])
-    b.link(tilt.outputs[0], tilted.inputs[1])
-    flake_normal = b.node("VectorMath", operation="NORMALIZE")
-    b.link(tilted.outputs[0], flake_normal.inputs[0])
-    sparkle = b.node("BsdfGlossy", label="Sparkle")
-    b.link(colour, sparkle.inputs["Color"])
-    b.link(SPARKLE_ROUGHNESS, sparkle.inputs["Roughness"])
-    b.link(flake_normal.outputs[0], sparkle.inputs["Normal"])
-    return b.math("MULTIPLY", is_flake, gin["Sparkle Intensity"], clamp=True), sparkle.outputs[0]
-
-
-def _build_eyeshadow(group: bpy.types.NodeTree) -> None:
-    spec = get_spec("eyeshadow")
-    group.interface.new_socket("Lid", in_out="INPUT", socket_type="NodeSocketShader").description = (
-        "The lid's own shader, seen where the shadow is transparent or does not reach"
-    )
-    add_spec_inputs(group, spec.params)
+def _lid_inputs(group: bpy.types.NodeTree) -> None:
+    """The lid coordinates' inputs, after the spec's: each overrides the mesh's attribute where it is set."""
     lid = group.interface.new_socket("Lid Coordinate", in_out="INPUT", socket_type="NodeSocketFloat")
     lid.default_value, lid.min_value, lid.max_value = -1.0, -1.0, 1.0
     lid.description = (f"Where a point lies between the lash line (0) and the brow (1). Below 0 (the default): the "
@@ -123,17 +86,11 @@ def _build_eyeshadow(group: bpy.types.NodeTree) -> None:
     across.description = (f"Where a point lies along the lid, -1 at the inner end to 1 at the outer end (Shift "
                           f"weighs it). Below -1 (the default): the mesh's '{ACROSS_ATTRIBUTE}' attribute, 0 on a "
                           "mesh without it (even, no fade at the ends)")
-    group.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
-    b = Builder(group, "Shader")
-    gin = b.node("NodeGroupInput").outputs
-    srgb = srgb_group()
 
-    colour = b.group_node(srgb, "Shadow Colour")
-    for index, name in enumerate(("Red", "Green", "Blue")):
-        b.link(gin[name], colour.inputs[index])
-    sparkle_colour = b.group_node(srgb, "Sparkle Colour")
-    for index, name in enumerate(("Sparkle Red", "Sparkle Green", "Sparkle Blue")):
-        b.link(gin[name], sparkle_colour.inputs[index])
+
+def _eyeshadow_layer(b: Builder, gin):
+    """(coverage, the shadow's shader): the band on the lid (_coverage), and the pigment, shimmer and flakes."""
+    colour, sparkle_colour = layer_colours(b, gin, "Shadow Colour")
 
     # Matte or metallic base: one Principled BSDF, its roughness falling with Metallic (pressed foil is smoother).
     base = b.node("BsdfPrincipled", label="Shadow Base")
@@ -157,26 +114,18 @@ def _build_eyeshadow(group: bpy.types.NodeTree) -> None:
     b.link(base.outputs[0], with_shimmer.inputs[1])
     b.link(pearl.outputs[0], with_shimmer.inputs[2])
 
-    flake_weight, sparkle = _sparkle(b, gin, sparkle_colour.outputs[0])
+    flake_weight, sparkle = sparkle_flakes(b, gin, sparkle_colour.outputs[0], b.node("NewGeometry").outputs["Normal"],
+                                           SPARKLE_CELLS_PER_UNIT)
     with_sparkles = b.node("MixShader", label="Sparkle Mix")
     b.link(flake_weight, with_sparkles.inputs["Fac"])
     b.link(with_shimmer.outputs[0], with_sparkles.inputs[1])
     b.link(sparkle, with_sparkles.inputs[2])
 
-    over_lid = b.node("MixShader", label="Coverage")
-    b.link(_coverage(b, gin), over_lid.inputs["Fac"])
-    b.link(gin["Lid"], over_lid.inputs[1])
-    b.link(with_sparkles.outputs[0], over_lid.inputs[2])
-    b.link(over_lid.outputs[0], b.node("NodeGroupOutput").inputs[0])
+    return _coverage(b, gin), with_sparkles.outputs[0]
 
 
-def eyeshadow_group() -> bpy.types.NodeTree:
-    """Get or create the "VTO Eye Shadow" shader group (the Lid shader, all 17 spec inputs, the lid coordinates)."""
-    return get_or_create_group(GROUP_NAME, SHADER_TREE, _build_eyeshadow)
-
-
-def eyeshadow_material(name: str, values: dict[str, float] | None = None) -> bpy.types.Material:
-    """A new material: a Principled BSDF "Bare Lid" -> the "VTO Eye Shadow" group (inputs set from `values`, checked
-    against the spec; the others at the group's defaults) -> Material Output."""
-    return layer_material(name, eyeshadow_group(), get_spec("eyeshadow"), "Bare Lid", (0.52, 0.33, 0.25, 1.0), 0.5,
-                          values)
+# The "VTO Eye Shadow" group: the Lid shader, all 17 spec inputs, the lid coordinates.
+EYESHADOW_GROUP = LayerGroup(GROUP_NAME, lambda: get_spec("eyeshadow"), "Lid",
+                             "The lid's own shader, seen where the shadow is transparent or does not reach",
+                             _eyeshadow_layer, _lid_inputs, "Coverage", "Bare Lid", (0.52, 0.33, 0.25, 1.0), 0.5)
+eyeshadow_group, eyeshadow_material = EYESHADOW_GROUP.group, EYESHADOW_GROUP.material

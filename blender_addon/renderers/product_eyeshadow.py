@@ -7,14 +7,16 @@ import functools
 import numpy as np
 
 from vto_core.appearance import skin_below
-from vto_core.errors import VtoError
 from vto_core.products import EYESHADOW
 
-from .products import BoundSource, ProductRenderer, shifted_colour
+from .face_layer import DefaultScene, FaceLayerRenderer
+from .nodes_eyeshadow import EYESHADOW_GROUP
+from .products import shifted_colour
+from .scene_build import applied
+from .scene_eyes import apply_source, build_eye_scene, eyelid_mask
 
 # Default-scene seeds the photo fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up.
 EYE_POOL = tuple(range(900001, 900025))
-DARK_SHADOW = 60.0  # max(R, G, B) below this (of 255) is a very dark shade (the smoky blacks)
 # The bare lid over the skin below it (vto_core.appearance.skin_below of the 64 px lid frame: the per-channel median of
 # the cheek under the eye, which a fringe of hair or the brows over the lid do not reach), per channel, linear: medians
 # over the 190 lids found on the 98 training faces of data/faces; and the median of the lid's core over its mean. What
@@ -33,30 +35,14 @@ BARE_LID_SPREAD = 0.45
 MIN_LID_WIDTH = 24
 
 
-class EyeShadowRenderer(ProductRenderer):
+class EyeShadowRenderer(FaceLayerRenderer):
     """VTO Eye Shadow: a shader node group in a material, rendered with Cycles on the default eye scene."""
 
     product = EYESHADOW
     fit_sources = EYE_POOL
-
-    def bind(self, source, res, samples, seed, lighting=None):
-        from .eyeshadow import render_eyeshadow
-        from .scene_eyes import eyelid_mask
-
-        self.check_source(source)
-        source = int(source)
-
-        def render(values):
-            return render_eyeshadow(values, source, res, samples, seed, lighting=lighting)
-
-        return BoundSource(render, lambda: render({"opacity": 0.0}), lambda: eyelid_mask(source, res, lighting))
-
-    def region_renderer(self, source, res, samples, tones=None):
-        from .eyeshadow import render_eyeshadow
-        from .scene_eyes import eyelid_mask
-
-        mask = eyelid_mask(source, res)
-        return lambda values: (render_eyeshadow(values, source, res, samples, 0), mask)
+    layer_group = EYESHADOW_GROUP
+    scene = DefaultScene(build_eye_scene, apply_source, eyelid_mask, applied)
+    add_hint = ", or put one between the lid's shader and the Material Output"
 
     def iter_fit_sources(self, region, count, res, samples):
         """The first `count` default eye sources of EYE_POOL, as they are (Better and Best on a portrait fit in the
@@ -70,47 +56,16 @@ class EyeShadowRenderer(ProductRenderer):
         with the lid coordinates the group reads."""
         from vto_core.photo.tryon import lid_mesh
 
-        from .nodes_eyeshadow import ACROSS_ATTRIBUTE, GROUP_NAME, LID_ATTRIBUTE, eyeshadow_material
+        from .nodes_eyeshadow import ACROSS_ATTRIBUTE, LID_ATTRIBUTE
         from .scene_photo import PhotoLayer
 
         def attributes(uvs):  # u: 0 at the outer end, 1 at the inner; across: 1 at the outer end, -1 at the inner
             return {LID_ATTRIBUTE: uvs[:, 1], ACROSS_ATTRIBUTE: 1.0 - 2.0 * uvs[:, 0]}
 
-        return PhotoLayer("Eyelid", "eyeshadow", GROUP_NAME, eyeshadow_material, "Bare Lid", lid_mesh, MIN_LID_WIDTH,
-                          attributes, bare=lambda skin: np.asarray(skin, np.float64) * BARE_LID_RATIO,
-                          skin=skin_below, core_median=LID_CORE_MEDIAN, bare_spread=BARE_LID_SPREAD)
-
-    def nodes(self, material):
-        from .eyeshadow import material_nodes
-
-        return material_nodes(material)
-
-    def material(self, name, values=None):
-        from .nodes_eyeshadow import eyeshadow_material
-
-        return eyeshadow_material(name, values)
-
-    def add_group(self, obj):
-        """A new "VTO Eye Shadow" material on `obj` (a mesh): a Principled BSDF (the bare lid) -> the eye-shadow group
-        -> Material Output, appended to its slots and made active. Returns the material."""
-        if obj is None or obj.type != "MESH":
-            raise VtoError("select a mesh object to add the eye-shadow material to")
-        material = self.material("VTO Eye Shadow")
-        obj.data.materials.append(material)
-        obj.active_material_index = len(obj.material_slots) - 1
-        return material
-
-    def where(self, material):
-        return f"material '{material.name}'"
-
-    def missing_group(self, material):
-        return (f"material '{material.name}' does not use the 'VTO Eye Shadow' node group (add one with Add VTO Eye "
-                "Shadow Material, or put one between the lid's shader and the Material Output)")
-
-    def default_scene(self):
-        from .scene_eyes import build_eye_scene
-
-        return build_eye_scene()
+        return PhotoLayer("Eyelid", "eyeshadow", EYESHADOW_GROUP.name, EYESHADOW_GROUP.material,
+                          EYESHADOW_GROUP.bare_node, lid_mesh, MIN_LID_WIDTH, attributes,
+                          bare=lambda skin: np.asarray(skin, np.float64) * BARE_LID_RATIO, skin=skin_below,
+                          core_median=LID_CORE_MEDIAN, bare_spread=BARE_LID_SPREAD)
 
     # The bare lid's tone: the skin's times scene_eyes.LID_TONE times a factor drawn in 0.95-1.05.
     bare_tone_step = 0.02
@@ -124,22 +79,6 @@ class EyeShadowRenderer(ProductRenderer):
         socket = bpy.data.materials[LID_MATERIAL].node_tree.nodes["Lid Or Skin"].inputs[6]  # the lid's own tone
         return shifted_colour(socket, lambda tone: np.clip(tone * (1.0 + offset), 0.0, 1.0))
 
-    def is_dark(self, values):
-        return max(values["red"], values["green"], values["blue"]) < DARK_SHADOW
-
-    def dataset_images(self, values, source, res, samples, cycles_seed, options):
-        from .eyeshadow import render_eyeshadow
-        from .scene_eyes import eyelid_mask
-
-        def draw(v):
-            return render_eyeshadow(v, source, res, samples, cycles_seed, scene=options.get("scene"),
-                                    lighting=options.get("lighting"))
-
-        bare = draw({**values[0], "opacity": 0.0}) if options.get("source_images", True) else None
-        extra = {}
-        if options.get("masks"):
-            extra["mask"] = eyelid_mask(source, res, options.get("lighting")).astype(np.float32)
-        return bare, [draw(v) for v in values], extra
-
 
 RENDERER = EyeShadowRenderer()
+render_eyeshadow = RENDERER.render_scene  # R(X, g) on the default eye scene (FaceLayerRenderer.render_scene)

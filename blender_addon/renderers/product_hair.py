@@ -70,6 +70,11 @@ class HairRenderer(ProductRenderer):
         return [self.region_renderer(seed, res, samples) for seed in FIT_SOURCES[:count]]
         yield  # a generator, as the other products' (nothing to wait for)
 
+    def photo_sources(self, folder):
+        from .hair import photo_sources
+
+        return photo_sources(folder)
+
     def fit_held(self, spec, start):
         from .hair import own_source_held
 

@@ -6,16 +6,18 @@ import functools
 
 import numpy as np
 
-from vto_core.errors import VtoError
 from vto_core.products import LIPSTICK
 
-from .products import BoundSource, ProductRenderer, shifted_colour
+from .face_layer import DefaultScene, FaceLayerRenderer
+from .nodes_lipstick import LIPSTICK_GROUP
+from .products import shifted_colour
+from .scene_build import applied
+from .scene_lips import apply_source, build_lips_scene, lips_mask
 
 # Default-scene seeds the photo fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up; the fit
 # takes those whose skin is most like the photo's.
 LIPS_POOL = tuple(range(900001, 900025))
 MAX_TONE_RATIO = 4.0  # a source's skin tone is scaled (linear, per channel) by at most this either way
-DARK_LIPSTICK = 60.0  # max(R, G, B) below this (of 255) is a very dark shade
 # The median of the lips' core over their whole mask's mean, per channel, in linear colour: medians over the 87
 # training faces of data/faces that wear no lipstick (spread 0.09-0.13). A median is what a product's lowered
 # highlights (vto_core.photo.tryon.lowered_highlights, above the 0.7 quantile) and a photo's clipped ones leave as it
@@ -34,14 +36,11 @@ def iter_lips_pool(res: int, samples: int):
     after each source (the UI stays live; these renders are not the fit's), returns the pool."""
     from vto_core.appearance import skin_colour, skin_light
 
-    from .lipstick import render_lipstick
-    from .scene_lips import lips_mask
-
     if (res, samples) not in _LIPS_POOLS:
         pool = []
         for seed in LIPS_POOL:
             mask = lips_mask(seed, res)
-            bare = render_lipstick({"opacity": 0.0}, seed, res, samples, 0)
+            bare = RENDERER.render_scene(LIPSTICK.bare({}), seed, res, samples, 0)
             pool.append((seed, skin_light(bare, mask)[1], skin_colour(bare, mask)))
             yield 0
         _LIPS_POOLS[(res, samples)] = tuple(pool)
@@ -62,30 +61,13 @@ def fitted_tones(seed: int, rendered_skin: np.ndarray, photo_skin: np.ndarray) -
     return skin, lip_tone(skin)
 
 
-class LipstickRenderer(ProductRenderer):
+class LipstickRenderer(FaceLayerRenderer):
     """VTO Lipstick: a shader node group in a material, rendered with Cycles on the default lips scene."""
 
     product = LIPSTICK
     fit_sources = LIPS_POOL
-
-    def bind(self, source, res, samples, seed, lighting=None):
-        from .lipstick import render_lipstick
-        from .scene_lips import lips_mask
-
-        self.check_source(source)
-        source = int(source)
-
-        def render(values):
-            return render_lipstick(values, source, res, samples, seed, lighting=lighting)
-
-        return BoundSource(render, lambda: render({"opacity": 0.0}), lambda: lips_mask(source, res, lighting))
-
-    def region_renderer(self, source, res, samples, tones=None):
-        from .lipstick import render_lipstick
-        from .scene_lips import lips_mask
-
-        mask = lips_mask(source, res)
-        return lambda values: (render_lipstick(values, source, res, samples, 0, tones=tones), mask)
+    layer_group = LIPSTICK_GROUP
+    scene = DefaultScene(build_lips_scene, apply_source, lips_mask, applied)
 
     def iter_fit_sources(self, region, count, res, samples):
         """The `count` default lips sources whose skin looks most like the photo's (CIEDE2000 of the skin around the
@@ -101,50 +83,17 @@ class LipstickRenderer(ProductRenderer):
         return [self.region_renderer(pool[i][0], res, samples, fitted_tones(pool[i][0], pool[i][2], photo_skin))
                 for i in order[:count]]
 
-    def nodes(self, material):
-        from .lipstick import material_nodes
-
-        return material_nodes(material)
-
-    def material(self, name, values=None):
-        from .nodes_lipstick import lipstick_material
-
-        return lipstick_material(name, values)
-
-    def add_group(self, obj):
-        """A new "VTO Lipstick" material on `obj` (a mesh): a Principled BSDF (the bare lips) -> the lipstick group ->
-        Material Output, appended to its slots and made active. Returns the material."""
-        if obj is None or obj.type != "MESH":
-            raise VtoError("select a mesh object to add the lipstick material to")
-        material = self.material("VTO Lipstick")
-        obj.data.materials.append(material)
-        obj.active_material_index = len(obj.material_slots) - 1
-        return material
-
-    def where(self, material):
-        return f"material '{material.name}'"
-
-    def missing_group(self, material):
-        return (f"material '{material.name}' does not use the 'VTO Lipstick' node group (add one with Add VTO "
-                "Lipstick Material)")
-
     @functools.cached_property
     def photo_layer(self):
         """The lips as the photo scene renders them (blender_addon.renderers.tryon): the lips mesh of the face mesh."""
         from vto_core.photo.bare_lips import bare_lips
         from vto_core.photo.tryon import lips_mesh
 
-        from .nodes_lipstick import GROUP_NAME, lipstick_material
         from .scene_photo import PhotoLayer
 
-        return PhotoLayer("Lips", "lipstick", GROUP_NAME, lipstick_material, "Bare Lips",
+        return PhotoLayer("Lips", "lipstick", LIPSTICK_GROUP.name, LIPSTICK_GROUP.material, LIPSTICK_GROUP.bare_node,
                           lambda points, depth, region: lips_mesh(points, depth), MIN_LIPS_WIDTH, bare=bare_lips,
                           core_median=CORE_MEDIAN)
-
-    def default_scene(self):
-        from .scene_lips import build_lips_scene
-
-        return build_lips_scene()
 
     # The bare lips' tone: the skin's shifted by scene_lips.LIP_TONE_SHIFT times a factor drawn in LIP_SHIFT_RANGE.
     bare_tone_step = 0.1
@@ -158,22 +107,6 @@ class LipstickRenderer(ProductRenderer):
         socket = bpy.data.materials[LIPS_MATERIAL].node_tree.nodes["Bare Lips"].inputs["Base Color"]
         return shifted_colour(socket, lambda tone: np.clip(tone + offset * np.array(LIP_TONE_SHIFT), 0.02, 1.0))
 
-    def is_dark(self, values):
-        return max(values["red"], values["green"], values["blue"]) < DARK_LIPSTICK
-
-    def dataset_images(self, values, source, res, samples, cycles_seed, options):
-        from .lipstick import render_lipstick
-        from .scene_lips import lips_mask
-
-        def draw(v):
-            return render_lipstick(v, source, res, samples, cycles_seed, scene=options.get("scene"),
-                                   lighting=options.get("lighting"))
-
-        bare = draw({**values[0], "opacity": 0.0}) if options.get("source_images", True) else None
-        extra = {}
-        if options.get("masks"):
-            extra["mask"] = lips_mask(source, res, options.get("lighting")).astype(np.float32)
-        return bare, [draw(v) for v in values], extra
-
 
 RENDERER = LipstickRenderer()
+render_lipstick = RENDERER.render_scene  # R(X, g) on the default lips scene (FaceLayerRenderer.render_scene)

@@ -26,7 +26,7 @@ def is_seed(source) -> bool:
 def check_lighting(product: Product, lighting: str | None, user_scene: bool = False) -> None:
     """VtoError (one line) where `lighting` is asked of a scene that keeps its own light: the default scene of a product
     without lightings (the hair), or a user's scene."""
-    if lighting is not None and (user_scene or not product.lightings):
+    if lighting is not None and (user_scene or not product.kind.lightings):
         from .lighting import ONLY_LIPS
 
         raise VtoError(ONLY_LIPS)
@@ -66,6 +66,11 @@ class ProductRenderer:
         """The default-scene region renderers a photo fit renders on, `count` of them; a generator (yields 0 while it
         renders what it needs once a session), returns the list."""
         raise NotImplementedError
+
+    def photo_sources(self, folder) -> list:
+        """The photos of a user folder that are their own sources (with their masks beside them), sorted; products
+        whose kind has photo_is_own_source."""
+        raise VtoError(f"{self.product.name} sources are seeds of its default scene, not photos")
 
     def fit_held(self, spec: RendererSpec, start: dict[str, float]) -> dict[int, float] | None:
         """{position in spec.modelled: unit value} a photo fit holds (what a photo fixes), or None."""

@@ -14,18 +14,19 @@ import bpy
 import numpy as np
 
 from vto_core.colour import srgb_to_linear
+from vto_core.errors import VtoError
 
 from ..compat import enable_nodes
-from .lighting import build_hdri_world
 from .nodes_eyeshadow import ACROSS_ATTRIBUTE, LID_ATTRIBUTE, eyeshadow_material
-from .scene_lips import SKIN_TONES, mesh_object, randomise_light, use_lighting, uv_sphere
+from .scene_build import (REGION_PASS_INDEX, SKIN_TONES, finish_scene, get_or_create_scene, grid_faces, mesh_object,
+                          randomise_light, record_source, region_mask, uv_sphere)
 
 SCENE_NAME = "VTO Eye"
 LID_OBJECT, SKIN_OBJECT = "VTO Eyelid", "VTO Eye Skin"
 EYEBALL_OBJECT, LASH_OBJECT = "VTO Eyeball", "VTO Lashes"
 LID_MATERIAL, SKIN_MATERIAL = "VTO Eyelid Material", "VTO Eye Skin Material"
 EYEBALL_MATERIAL, LASH_MATERIAL = "VTO Eyeball Material", "VTO Lash Material"
-EYELID_PASS_INDEX = 1  # the lid's object index: the IndexOB pass of a render is the lid mask
+EYELID_PASS_INDEX = REGION_PASS_INDEX  # the lid's object index: the IndexOB pass of a render is the lid mask
 
 HALF_OPENING = 0.47  # the eye opening's half width: the lid margin runs from x = -HALF_OPENING to +HALF_OPENING
 # The lid region's ends in x: MediaPipe's lid loop is ~1.6 eye openings wide, reaching further out than in.
@@ -220,14 +221,6 @@ def lash_vertices(shape: dict[str, float], upper_skin: np.ndarray, lower_skin: n
     return np.concatenate(lashes).astype(np.float32)
 
 
-def _grid_faces(columns: int, rows: int, offset: int = 0, keep=None) -> list[tuple[int, int, int, int]]:
-    """Quads of a (rows + 1) x (columns + 1) vertex grid, row-major from `offset`; keep(r, c) filters them."""
-    width = columns + 1
-    return [(offset + r * width + c, offset + r * width + c + 1, offset + (r + 1) * width + c + 1,
-             offset + (r + 1) * width + c)
-            for r in range(rows) for c in range(columns) if keep is None or keep(r, c)]
-
-
 def _lash_faces(count: int) -> list[tuple[int, int, int, int]]:
     per = 2 * (LASH_SEGMENTS + 1)
     return [(n * per + 2 * s, n * per + 2 * s + 1, n * per + 2 * s + 3, n * per + 2 * s + 2)
@@ -237,9 +230,9 @@ def _lash_faces(count: int) -> list[tuple[int, int, int, int]]:
 def _skin_faces() -> list[tuple[int, int, int, int]]:
     columns = len(_columns()) - 1
     lid = _lid_columns()
-    upper = _grid_faces(columns, LID_ROWS + ABOVE_ROWS,
+    upper = grid_faces(columns, LID_ROWS + ABOVE_ROWS,
                         keep=lambda r, c: not (r < LID_ROWS and lid.start <= c < lid.stop - 1))
-    return upper + _grid_faces(columns, BELOW_ROWS, (LID_ROWS + ABOVE_ROWS + 1) * (columns + 1))
+    return upper + grid_faces(columns, BELOW_ROWS, (LID_ROWS + ABOVE_ROWS + 1) * (columns + 1))
 
 
 def _principled_material(name: str, roughness: float) -> tuple[bpy.types.Material, bpy.types.Node]:
@@ -349,14 +342,14 @@ def _eyeball_mesh() -> bpy.types.Mesh:
 
 def build_eye_scene() -> bpy.types.Scene:
     """Get or create the eye scene (geometry at source 0)."""
-    scene = bpy.data.scenes.get(SCENE_NAME)
-    if scene is not None:
-        return scene
-    scene = bpy.data.scenes.new(SCENE_NAME)
+    return get_or_create_scene(SCENE_NAME, _build)
+
+
+def _build(scene: bpy.types.Scene) -> None:
     shape = eye_shape(np.random.default_rng(0))
     lid_columns = _lid_columns().stop - _lid_columns().start - 1
     upper, lower = upper_vertices(shape), lower_vertices(shape)
-    lid = mesh_object(scene, LID_OBJECT, upper[: LID_ROWS + 1, _lid_columns()], _grid_faces(lid_columns, LID_ROWS),
+    lid = mesh_object(scene, LID_OBJECT, upper[: LID_ROWS + 1, _lid_columns()], grid_faces(lid_columns, LID_ROWS),
                        _lid_material())
     lid.pass_index = EYELID_PASS_INDEX
     for name, values in zip((LID_ATTRIBUTE, ACROSS_ATTRIBUTE), lid_coordinates()):
@@ -371,14 +364,7 @@ def build_eye_scene() -> bpy.types.Scene:
     eyeball = bpy.data.objects.new(EYEBALL_OBJECT, _eyeball_mesh())
     eyeball.location = (0.0, 0.0, -EYEBALL_RADIUS)
     scene.collection.objects.link(eyeball)
-    camera = bpy.data.objects.new("VTO Eye Camera", bpy.data.cameras.new("VTO Eye Camera"))
-    camera.data.lens, camera.data.sensor_width = LENS, SENSOR
-    scene.collection.objects.link(camera)
-    scene.camera = camera
-    scene.view_layers[0].use_pass_object_index = True
-    build_hdri_world(scene)
-    apply_source(scene, 0)
-    return scene
+    finish_scene(scene, "VTO Eye Camera", LENS, SENSOR, apply_source)
 
 
 def _draw_tones(rng: np.random.Generator) -> dict[str, np.ndarray]:
@@ -397,8 +383,11 @@ def _source_rng(source_seed: int) -> np.random.Generator:
     return np.random.default_rng([int(source_seed), 0xE7E])
 
 
-def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
-    """Set shape, tones, lighting and camera of the eye scene from `source_seed`, in place."""
+def apply_source(scene: bpy.types.Scene, source_seed: int, tones=None, light_seed: int | None = None) -> None:
+    """Set shape, tones, lighting and camera of the eye scene from `source_seed`, in place (a source's own tones and
+    light: the eye scene takes no others)."""
+    if tones is not None or light_seed is not None:
+        raise VtoError("the default eye scene shows each source in its own tones and light")
     rng = _source_rng(source_seed)
     shape = eye_shape(rng)
     upper, lower = upper_vertices(shape), lower_vertices(shape)
@@ -433,18 +422,10 @@ def apply_source(scene: bpy.types.Scene, source_seed: int) -> None:
     camera.location = ((low[0] + high[0]) / 2 + rng.normal(0, 0.03), (low[1] + high[1]) / 2 + rng.normal(0, 0.03),
                        distance)
     camera.rotation_euler = (rng.normal(0, 0.015), rng.normal(0, 0.015), rng.normal(0, 0.04))
-    scene["vto_source_seed"] = int(source_seed)
+    record_source(scene, source_seed)
 
 
 def eyelid_mask(source_seed: int, res: int, lighting: str | None = None) -> np.ndarray:
     """Where the lid is in a res x res render of the default eye scene with `source_seed`, lit the `lighting` way:
     (res, res) bool."""
-    from .cycles import configure_cycles, render_passes
-
-    scene = build_eye_scene()
-    use_lighting(scene, lighting)
-    if scene.get("vto_source_seed") != int(source_seed):
-        apply_source(scene, int(source_seed))
-    configure_cycles(scene, res, 1, 0)
-    scene.cycles.use_denoising = False
-    return np.abs(render_passes(scene)["IndexOB"][..., 0] - EYELID_PASS_INDEX) < 0.5
+    return region_mask(build_eye_scene, apply_source, source_seed, res, lighting)

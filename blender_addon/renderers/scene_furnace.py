@@ -12,16 +12,17 @@ from vto_core.products import get_spec
 from ..compat import enable_nodes
 from .nodes_lipstick import lipstick_group
 from .cycles import configure_cycles, render_passes
+from .scene_build import get_or_create_scene
 
 FURNACE_SCENE = "VTO Furnace"
 
 
 def furnace_scene() -> bpy.types.Scene:
     """Get or create the furnace (world radiance 1, white diffuse lips): nothing energy-conserving exceeds 1."""
-    scene = bpy.data.scenes.get(FURNACE_SCENE)
-    if scene is not None:
-        return scene
-    scene = bpy.data.scenes.new(FURNACE_SCENE)
+    return get_or_create_scene(FURNACE_SCENE, _build)
+
+
+def _build(scene: bpy.types.Scene) -> None:
     world = bpy.data.worlds.new(FURNACE_SCENE)
     enable_nodes(world)
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (1, 1, 1, 1)
@@ -54,7 +55,6 @@ def furnace_scene() -> bpy.types.Scene:
     scene.collection.objects.link(camera)
     scene.camera = camera
     scene.view_layers[0].use_pass_object_index = True
-    return scene
 
 
 def render_furnace(values: dict[str, float], samples: int = 64, res: int = 32) -> tuple[np.ndarray, np.ndarray]:

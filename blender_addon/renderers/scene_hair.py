@@ -15,7 +15,7 @@ from vto_core.errors import VtoError
 
 from ..compat import enable_nodes
 from .lighting import build_hdri_world, randomise_hdri
-from .scene_lips import SKIN_TONES, uv_sphere
+from .scene_build import SKIN_TONES, get_or_create_scene, uv_sphere
 
 SCENE_NAME = "VTO Hair"
 HAIR_OBJECT = "VTO Hair Strands"
@@ -120,10 +120,10 @@ def _head_material() -> bpy.types.Material:
 
 def build_hair_scene() -> bpy.types.Scene:
     """Get or create the hair scene (strands at source 0)."""
-    scene = bpy.data.scenes.get(SCENE_NAME)
-    if scene is not None:
-        return scene
-    scene = bpy.data.scenes.new(SCENE_NAME)
+    return get_or_create_scene(SCENE_NAME, _build)
+
+
+def _build(scene: bpy.types.Scene) -> None:
     mesh = bpy.data.meshes.new(HEAD_OBJECT)
     mesh.from_pydata(*uv_sphere(48, 24, HEAD_RADIUS))
     mesh.shade_smooth()
@@ -151,7 +151,6 @@ def build_hair_scene() -> bpy.types.Scene:
     build_hdri_world(scene)
     scene.view_layers[0].use_pass_object_index = True
     apply_source(scene, 0)
-    return scene
 
 
 def apply_source(scene: bpy.types.Scene, source_seed: int, view: str = "region") -> None:

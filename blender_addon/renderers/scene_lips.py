@@ -11,30 +11,25 @@ import bpy
 import numpy as np
 
 from vto_core.colour import srgb_to_linear
-
-from vto_core.errors import VtoError
-
 from ..compat import enable_nodes
-from .lighting import LIGHTINGS, build_hdri_world, randomise_hdri, randomise_portrait
 from .nodes_lipstick import lipstick_material
+from .scene_build import (REGION_PASS_INDEX, SKIN_TONES, finish_scene, get_or_create_scene, grid_faces, mesh_object,
+                          randomise_light, record_source, region_mask)
 
 SCENE_NAME = "VTO Lips"
 LIPS_OBJECT = "VTO Lips"
 SKIN_OBJECT = "VTO Skin"
 LIPS_MATERIAL = "VTO Lips Material"
 SKIN_MATERIAL = "VTO Skin Material"
-LIPS_PASS_INDEX = 1  # the lips' object index: the IndexOB pass of a render is the lips mask
+LIPS_PASS_INDEX = REGION_PASS_INDEX  # the lips' object index: the IndexOB pass of a render is the lips mask
 
 LIP_COLUMNS, LIP_ROWS = 48, 12  # per lip: across the mouth, outer contour -> mouth line
 SKIN_COLUMNS, SKIN_ROWS = 80, 60
 SKIN_HALF_WIDTH, SKIN_HALF_HEIGHT = 2.2, 1.6
 MOUTH_DEPTH = 0.35
 
-# sRGB 8-bit tones, light to dark.
-SKIN_TONES = [(241, 194, 167), (224, 172, 138), (198, 146, 110), (161, 110, 75), (118, 78, 52), (80, 52, 36)]
 LIP_TONE_SHIFT = (-0.06, -0.22, -0.18)  # lips: a redder, darker version of the skin tone
 LIP_SHIFT_RANGE = (0.6, 1.3)  # how much of LIP_TONE_SHIFT a source's bare lips take
-DEFAULT_LIGHTING = "portrait"
 
 
 def lip_shape(rng: np.random.Generator) -> dict[str, float]:
@@ -87,48 +82,6 @@ def skin_vertices(shape: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     return np.stack([xx, yy, z], -1).reshape(-1, 3).astype(np.float32), inside.reshape(-1).astype(np.float32)
 
 
-def _grid_faces(columns: int, rows: int, offset: int = 0) -> list[tuple[int, int, int, int]]:
-    width = columns + 1
-    return [
-        (offset + r * width + c, offset + r * width + c + 1, offset + (r + 1) * width + c + 1, offset + (r + 1) * width + c)
-        for r in range(rows)
-        for c in range(columns)
-    ]
-
-
-def mesh_object(scene, name: str, vertices: np.ndarray, faces, material) -> bpy.types.Object:
-    """A new smooth-shaded mesh object in `scene` with `vertices` (..., 3), `faces` and `material`."""
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(vertices.reshape(-1, 3).tolist(), [], faces)
-    mesh.materials.append(material)
-    mesh.shade_smooth()
-    obj = bpy.data.objects.new(name, mesh)
-    scene.collection.objects.link(obj)
-    return obj
-
-
-def uv_sphere(segments: int, rings: int, radius: float) -> tuple[list, list, list]:
-    """(vertices, edges, faces) of a UV sphere about z, in a fixed order.
-
-    bmesh's create_uvsphere orders its faces differently from run to run, and with them Blender's normals and
-    Cycles' sums, so renders changed in the last bit between runs.
-    """
-    polar = np.pi * np.arange(1, rings) / rings
-    azimuth = 2 * np.pi * np.arange(segments) / segments
-    ring = np.stack([np.outer(np.sin(polar), np.cos(azimuth)), np.outer(np.sin(polar), np.sin(azimuth)),
-                     np.repeat(np.cos(polar)[:, None], segments, 1)], -1).reshape(-1, 3)
-    vertices = np.concatenate([[(0.0, 0.0, 1.0)], ring, [(0.0, 0.0, -1.0)]]) * radius
-    bottom = len(vertices) - 1
-
-    def at(k, j):  # vertex j of ring k (0 = nearest the top)
-        return 1 + k * segments + j % segments
-
-    faces = [(0, at(0, j), at(0, j + 1)) for j in range(segments)]
-    faces += [(at(k, j), at(k + 1, j), at(k + 1, j + 1), at(k, j + 1)) for k in range(rings - 2) for j in range(segments)]
-    faces += [(bottom, at(rings - 2, j + 1), at(rings - 2, j)) for j in range(segments)]
-    return vertices.tolist(), [], faces
-
-
 def _skin_material() -> bpy.types.Material:
     material = bpy.data.materials.new(SKIN_MATERIAL)
     enable_nodes(material)
@@ -148,13 +101,13 @@ def _skin_material() -> bpy.types.Material:
 
 def build_lips_scene() -> bpy.types.Scene:
     """Get or create the lips scene (geometry at source 0)."""
-    scene = bpy.data.scenes.get(SCENE_NAME)
-    if scene is not None:
-        return scene
-    scene = bpy.data.scenes.new(SCENE_NAME)
+    return get_or_create_scene(SCENE_NAME, _build)
+
+
+def _build(scene: bpy.types.Scene) -> None:
     shape = lip_shape(np.random.default_rng(0))
     lips = mesh_object(scene, LIPS_OBJECT, lip_vertices(shape),
-                        _grid_faces(LIP_COLUMNS, LIP_ROWS) + _grid_faces(LIP_COLUMNS, LIP_ROWS, (LIP_COLUMNS + 1) * (LIP_ROWS + 1)),
+                        grid_faces(LIP_COLUMNS, LIP_ROWS) + grid_faces(LIP_COLUMNS, LIP_ROWS, (LIP_COLUMNS + 1) * (LIP_ROWS + 1)),
                         lipstick_material(LIPS_MATERIAL))
     lips.pass_index = LIPS_PASS_INDEX
     u = np.linspace(0, 1, LIP_COLUMNS + 1)
@@ -165,16 +118,9 @@ def build_lips_scene() -> bpy.types.Scene:
     lips.data.loops.foreach_get("vertex_index", loop_vertices)
     uv_layer.data.foreach_set("uv", uv_per_vertex[loop_vertices].reshape(-1))
     skin_positions, _ = skin_vertices(shape)
-    skin = mesh_object(scene, SKIN_OBJECT, skin_positions, _grid_faces(SKIN_COLUMNS, SKIN_ROWS), _skin_material())
+    skin = mesh_object(scene, SKIN_OBJECT, skin_positions, grid_faces(SKIN_COLUMNS, SKIN_ROWS), _skin_material())
     skin.data.attributes.new("mouth", "FLOAT", "POINT")
-    camera = bpy.data.objects.new("VTO Camera", bpy.data.cameras.new("VTO Camera"))
-    camera.data.lens = 62.0
-    scene.collection.objects.link(camera)
-    scene.camera = camera
-    scene.view_layers[0].use_pass_object_index = True
-    build_hdri_world(scene)
-    apply_source(scene, 0)
-    return scene
+    finish_scene(scene, "VTO Camera", 62.0, None, apply_source)
 
 
 def lip_tone(skin: np.ndarray, shift: float = float(np.mean(LIP_SHIFT_RANGE))) -> np.ndarray:
@@ -232,52 +178,10 @@ def apply_source(scene: bpy.types.Scene, source_seed: int,
     camera = scene.camera
     camera.location = (rng.normal(0, 0.08), rng.normal(-0.05, 0.08), rng.uniform(3.6, 4.4))
     camera.rotation_euler = (rng.normal(0, 0.02), rng.normal(0, 0.02), rng.normal(0, 0.04))
-    scene["vto_source_seed"] = int(source_seed)
-    scene["vto_source_tones"] = tones_key(tones)
-    scene["vto_light_seed"] = -1 if light_seed is None else int(light_seed)
-
-
-def randomise_light(scene: bpy.types.Scene, rng: np.random.Generator) -> None:
-    """Draw the scene's light from `rng` the scene's way (portrait or wide)."""
-    if scene.get("vto_lighting", DEFAULT_LIGHTING) == "portrait":
-        randomise_portrait(scene, rng)
-    else:
-        randomise_hdri(scene, rng, (0.6, 1.6))
-
-
-def tones_key(tones: tuple[np.ndarray, np.ndarray] | None) -> list[float]:
-    """What the scene records of the tones a source was applied with ([] for the seed's own)."""
-    return [] if tones is None else [round(float(v), 6) for t in tones for v in t]
-
-
-def applied(scene: bpy.types.Scene, source_seed: int, tones: tuple[np.ndarray, np.ndarray] | None = None,
-            light_seed: int | None = None) -> bool:
-    """Whether `scene` shows `source_seed` with `tones` and `light_seed` already (apply_source would change nothing)."""
-    return (scene.get("vto_source_seed") == int(source_seed)
-            and list(scene.get("vto_source_tones", [])) == tones_key(tones)
-            and scene.get("vto_light_seed", -1) == (-1 if light_seed is None else int(light_seed)))
-
-
-def use_lighting(scene: bpy.types.Scene, lighting: str | None = None) -> None:
-    """Light the default lips scene's sources the `lighting` way from now on ("wide" or "portrait", lighting.py;
-    None: DEFAULT_LIGHTING)."""
-    lighting = lighting or DEFAULT_LIGHTING
-    if lighting not in LIGHTINGS:
-        raise VtoError(f"lighting is {' or '.join(LIGHTINGS)}, got '{lighting}'")
-    if scene.get("vto_lighting", DEFAULT_LIGHTING) != lighting:
-        scene["vto_lighting"] = lighting
-        scene.pop("vto_source_seed", None)  # the next render applies its source again, lit the new way
+    record_source(scene, source_seed, tones, light_seed)
 
 
 def lips_mask(source_seed: int, res: int, lighting: str | None = None) -> np.ndarray:
-    """Where the lips are in a res x res render of the default scene with `source_seed`, lit the `lighting` way (the
-    camera's jitter is drawn after the light): (res, res) bool."""
-    from .cycles import configure_cycles, render_passes
-
-    scene = build_lips_scene()
-    use_lighting(scene, lighting)
-    if scene.get("vto_source_seed") != int(source_seed):
-        apply_source(scene, int(source_seed))
-    configure_cycles(scene, res, 1, 0)
-    scene.cycles.use_denoising = False
-    return np.abs(render_passes(scene)["IndexOB"][..., 0] - LIPS_PASS_INDEX) < 0.5
+    """Where the lips are in a res x res render of the default scene with `source_seed`, lit the `lighting` way:
+    (res, res) bool."""
+    return region_mask(build_lips_scene, apply_source, source_seed, res, lighting)

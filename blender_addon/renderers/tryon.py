@@ -25,8 +25,9 @@ from vto_core.photo.face_reader import apply_matrix, clean_photo, polygon_mask, 
 from vto_core.photo.face_regions import region_mask, region_width
 from vto_core.photo.framing import region_view, square_view, view_box, view_cut
 from vto_core.photo.photo_light import light_of
+from vto_core.photo.photo_reader import by_lips_locator
 from vto_core.photo.tryon import composite, feathered, worn_over_bare
-from vto_core.products import LIPS, FaceRegion, Product, get_product, get_spec
+from vto_core.products import LIPS, LIPSTICK, FaceRegion, Product, get_product, get_spec
 
 from ..shipped import photo_reader
 from .cycles import configure_cycles, render_passes
@@ -43,19 +44,22 @@ def photo_layer(product: Product | str) -> PhotoLayer:
 
     product = get_product(product) if isinstance(product, str) else product
     layer = getattr(blender_side(product), "photo_layer", None)
-    if layer is None or not product.tryon:
+    if layer is None or not product.kind.tryon:
         raise VtoError(f"{product.name} has no try-on on a photo")
     return layer
 
 
 def find_regions(photo: np.ndarray, product: Product) -> list[tuple[FaceRegion, object]]:
     """Each face region of `product` the largest face of (H, W, 3) shows wide enough to render onto: [(region,
-    vto_core.photo.lips_locator.LipsFound), ...], its face_region first; VtoError 'no face found ...' where there is
-    none."""
+    vto_core.photo.lips_locator.RegionFound), ...], its face_region first; VtoError 'no face found ...' where there is
+    none. Where the first region is one the lips locator reads (by_lips_locator), any reason it finds none (no face,
+    not a close-up, lips covering no pixel) is 'no face found ...' here; another region's is raised as it is, unless
+    it says 'no face'."""
     try:
         found, _ = photo_reader().locate_regions(product, photo)
     except VtoError as exc:
-        if product.face_region != LIPS and "no face" not in str(exc):
+        first = product.face_region
+        if not (first is not None and by_lips_locator(first)) and "no face" not in str(exc):
             raise
         found = []
     checked, problem = [], None
@@ -71,8 +75,8 @@ def find_regions(photo: np.ndarray, product: Product) -> list[tuple[FaceRegion, 
 
 
 def to_render(found, region: FaceRegion, layer: PhotoLayer):
-    """`found` (vto_core.photo.lips_locator.LipsFound, or None) where it is a face's region wide enough to render onto;
-    VtoError 'no face found ...' where not."""
+    """`found` (vto_core.photo.lips_locator.RegionFound, or None) where it is a face's region wide enough to render
+    onto; VtoError 'no face found ...' where not."""
     if found is None or found.how != "face":
         raise VtoError(f"no face found: the {layer.product} is tried on the {region.name} of a face; choose a portrait")
     width = region_width(found.landmarks, region)
@@ -82,14 +86,15 @@ def to_render(found, region: FaceRegion, layer: PhotoLayer):
     return found
 
 
-def find_lips(photo: np.ndarray):
-    """The lips of the largest face of (H, W, 3) (vto_core.photo.lips_locator.LipsFound); VtoError 'no face found
-    ...' where there is no face, or its lips are too small to render onto."""
+def find_lips(photo: np.ndarray, product: Product | str):
+    """The lips of the largest face of (H, W, 3) (vto_core.photo.lips_locator.RegionFound) to try `product` (one worn
+    on the lips: LIPSTICK) on; VtoError 'no face found ...' where there is no face, or its lips are too small to
+    render `product` onto."""
     try:
         lips = photo_reader().locate_lips(photo)
     except VtoError:
         lips = None
-    return to_render(lips, LIPS, photo_layer("lipstick"))
+    return to_render(lips, LIPS, photo_layer(product))
 
 
 @dataclass
@@ -97,7 +102,7 @@ class PhotoRegion:
     """A portrait's face region ready to render onto: found, framed as Match frames it at n x n px, its light read."""
 
     photo: np.ndarray  # (H, W, 3) display
-    lips: object  # vto_core.photo.lips_locator.LipsFound: the region found (the lips, a lid)
+    found: object  # vto_core.photo.lips_locator.RegionFound: the region found (the lips, a lid)
     cast: np.ndarray  # (3,) the photo's light colour, linear gains of mean 1
     n: int
     to_frame: np.ndarray  # (2, 3) photo px -> frame px
@@ -105,16 +110,13 @@ class PhotoRegion:
     depth: np.ndarray | None  # (468,) in frame px, nearer lower
     frame: np.ndarray  # (n, n, 3) display: what the frame sees of the photo
     mask: np.ndarray  # (n, n) the region in the frame
-    region: FaceRegion = LIPS
-    layer: PhotoLayer | None = None  # the product's layer (None: the lipstick's)
-
-    def __post_init__(self):
-        self.layer = self.layer or photo_layer("lipstick")
+    region: FaceRegion  # the region `found` is
+    layer: PhotoLayer  # the product's layer
 
 
 def photo_region(photo: np.ndarray, found, region: FaceRegion, layer: PhotoLayer, n: int | None = None,
                  light=None) -> PhotoRegion:
-    """A found face region (LipsFound, checked by to_render) of the photo (H, W, 3) display framed at n x n px (None:
+    """A found face region (RegionFound, checked by to_render) of the photo (H, W, 3) display framed at n x n px (None:
     the frame's own size, at most 2 x MAX_RENDER), the photo's light read beside the lips (`light`: read already)."""
     view, size, _ = region_view(found, region)
     n = n or min(size, MAX_RENDER * 2)
@@ -131,12 +133,13 @@ def photo_region(photo: np.ndarray, found, region: FaceRegion, layer: PhotoLayer
                        layer)
 
 
-def photo_lips(photo: np.ndarray, n: int | None = None, lips=None) -> PhotoRegion:
+def photo_lips(photo: np.ndarray, product: Product | str, n: int | None = None, lips=None) -> PhotoRegion:
     """The lips of the largest face of (H, W, 3) display (or `lips`, found in it before), framed at n x n px (None:
-    the frame's own size, at most 2 x MAX_RENDER). VtoError 'no face found ...' (find_lips, to_render)."""
+    the frame's own size, at most 2 x MAX_RENDER) to try `product` (one worn on the lips: LIPSTICK) on. VtoError 'no
+    face found ...' (find_lips, to_render)."""
     photo = clean_photo(photo)  # no copy of a clean photo (a 64-megapixel one is 778 MB)
-    layer = photo_layer("lipstick")
-    lips = find_lips(photo) if lips is None else to_render(lips, LIPS, layer)
+    layer = photo_layer(product)
+    lips = find_lips(photo, product) if lips is None else to_render(lips, LIPS, layer)
     return photo_region(photo, lips, LIPS, layer, n)
 
 
@@ -172,9 +175,8 @@ def render_size(target: PhotoRegion) -> int:
     return min(target.n, MAX_RENDER)
 
 
-def render_look(scene: bpy.types.Scene, values: dict[str, float], layer: PhotoLayer | None = None) -> np.ndarray:
-    """The layer's photo scene (set_photo_region; None: the lipstick's) wearing `values`: (res, res, 3) linear."""
-    layer = layer or photo_layer("lipstick")
+def render_look(scene: bpy.types.Scene, values: dict[str, float], layer: PhotoLayer) -> np.ndarray:
+    """The layer's photo scene (set_photo_region) wearing `values`: (res, res, 3) linear."""
     set_group_values(scene, get_spec(layer.product), layer.group_name, values)
     return render_passes(scene)["Combined"][..., :3]
 
@@ -186,7 +188,7 @@ def product_ratio(target: PhotoRegion, values: dict[str, float], samples: int, s
     from before (None: rendered now, with `bare_seed`, or None: `seed`)."""
     scene = set_photo_region(target, samples, seed if bare_seed is None else bare_seed)
     if bare is None:
-        bare = render_look(scene, {**values, "opacity": 0.0}, target.layer)
+        bare = render_look(scene, get_product(target.layer.product).bare(values), target.layer)
     scene.cycles.seed = seed
     ratio = worn_over_bare(bare, render_look(scene, values, target.layer))
     res, size = ratio.shape[0], target.n
@@ -209,12 +211,12 @@ def tryon_product(product: Product | str, photo: np.ndarray, values: dict[str, f
     if crop:
         target = targets[0]
         ratio, _ = product_ratio(target, values, samples, seed)
-        worn = composite(srgb_to_linear(target.frame), ratio, feathered(target.mask), values["opacity"])
+        worn = composite(srgb_to_linear(target.frame), ratio, feathered(target.mask), values[product.coverage])
         return np.clip(linear_to_srgb(worn), 0.0, 1.0).astype(np.float32)
     out = targets[0].photo
     for k, target in enumerate(targets):
         ratio, _ = product_ratio(target, values, samples, seed)
-        out = on_photo(out, target.lips, target.to_frame, ratio, values["opacity"], in_place or k > 0)
+        out = on_photo(out, target.found, target.to_frame, ratio, values[product.coverage], in_place or k > 0)
     return out
 
 
@@ -222,13 +224,13 @@ def tryon_lipstick(photo: np.ndarray, values: dict[str, float], crop: int | None
                    samples: int = DEFAULT_SAMPLES, seed: int = 0, in_place: bool = False) -> np.ndarray:
     """tryon_product of the lipstick: (H, W, 3) display wearing `values`, or with `crop` = n its lips framed at n x n
     px."""
-    return tryon_product("lipstick", photo, values, crop, samples, seed, in_place)
+    return tryon_product(LIPSTICK, photo, values, crop, samples, seed, in_place)
 
 
-def around_lips(lips, size: int) -> np.ndarray:
+def around_region(found, size: int) -> np.ndarray:
     """The view (2, 3) of a size x size square on a found region (the lips; an eye's lid) and around it (2.2 of its
     widths across, upright): what the previews show of a photo."""
-    return around([np.asarray(lips.outer, np.float64)], size)
+    return around([np.asarray(found.outer, np.float64)], size)
 
 
 def around(loops: list[np.ndarray], size: int) -> np.ndarray:
@@ -249,17 +251,17 @@ def region_pixels_mask(found, x0: int, y0: int, width: int, height: int) -> np.n
     return mask
 
 
-def on_photo(photo: np.ndarray, lips, to_frame: np.ndarray, ratio: np.ndarray, opacity: float,
+def on_photo(photo: np.ndarray, found, to_frame: np.ndarray, ratio: np.ndarray, opacity: float,
              in_place: bool = False, window: tuple[int, int, int, int] | None = None) -> np.ndarray:
-    """The photo with the frame's product ratio (n, n, 3) applied inside a found region's soft mask (`lips`: the lips,
-    a lid; to_frame (2, 3): photo pixels to the frame's); every other pixel is the photo's own, unchanged. in_place:
-    drawn on `photo` itself. window (x0, y0, x1, y1): only that part of the photo, drawn on a copy of it (it holds the
-    region's box and EDGE px around it): a 64-megapixel portrait costs its part, not a whole copy."""
-    x, y, w, h = lips.box
+    """The photo with the frame's product ratio (n, n, 3) applied inside a found region's soft mask (`found`: the
+    lips, a lid; to_frame (2, 3): photo pixels to the frame's); every other pixel is the photo's own, unchanged.
+    in_place: drawn on `photo` itself. window (x0, y0, x1, y1): only that part of the photo, drawn on a copy of it (it
+    holds the region's box and EDGE px around it): a 64-megapixel portrait costs its part, not a whole copy."""
+    x, y, w, h = found.box
     height, width = photo.shape[:2]
     x0, y0 = max(0, x - EDGE), max(0, y - EDGE)
     x1, y1 = min(width, x + w + EDGE), min(height, y + h + EDGE)
-    mask = region_pixels_mask(lips, x0, y0, x1 - x0, y1 - y0)
+    mask = region_pixels_mask(found, x0, y0, x1 - x0, y1 - y0)
     xs, ys = np.meshgrid(np.arange(x0, x1) + 0.5, np.arange(y0, y1) + 0.5)
     u = to_frame[0, 0] * xs + to_frame[0, 1] * ys + to_frame[0, 2]
     v = to_frame[1, 0] * xs + to_frame[1, 1] * ys + to_frame[1, 2]
@@ -276,19 +278,19 @@ def on_photo(photo: np.ndarray, lips, to_frame: np.ndarray, ratio: np.ndarray, o
 
 
 def tryon_view(photo: np.ndarray, values: dict[str, float], size: int, samples: int, seed: int,
-               product: Product | str = "lipstick") -> tuple[np.ndarray, np.ndarray]:
-    """What the previews show of a product tried on a portrait (H, W, 3): (the photo around its regions, the same
+               product: Product | str) -> tuple[np.ndarray, np.ndarray]:
+    """What the previews show of `product` tried on a portrait (H, W, 3): (the photo around its regions, the same
     square wearing `values`), each (size, size, 3), framed by `around` all the regions found (the lips; both eyes):
     tryon_product's try-on, drawn only on the part of the photo the square shows. VtoError 'no face found ...' where it
     has no face, or its regions are too small."""
     product = get_product(product) if isinstance(product, str) else product
     values = product.spec.check_values(values)
     targets = photo_regions(photo, product)
-    view = around([np.asarray(t.lips.outer, np.float64) for t in targets], size)
+    view = around([np.asarray(t.found.outer, np.float64) for t in targets], size)
     photo = targets[0].photo
     height, width = photo.shape[:2]
     x, y, w, h = view_box(view, size, (height, width))
-    boxes = [t.lips.box for t in targets]
+    boxes = [t.found.box for t in targets]
     # the part of the photo that view_cut reads (a pixel more each way) and on_photo draws on (EDGE around each region)
     x0 = max(0, min([x - 1] + [bx - EDGE for bx, _, _, _ in boxes]))
     y0 = max(0, min([y - 1] + [by - EDGE for _, by, _, _ in boxes]))
@@ -299,14 +301,15 @@ def tryon_view(photo: np.ndarray, values: dict[str, float], size: int, samples: 
         ratio, _ = product_ratio(target, values, samples, seed)
         shifted_frame = target.to_frame.copy()
         shifted_frame[:, 2] += target.to_frame[:, :2] @ np.array([x0, y0], np.float64)
-        worn = on_photo(worn, shifted(target.lips, -x0, -y0), shifted_frame, ratio, values["opacity"], in_place=True)
+        worn = on_photo(worn, shifted(target.found, -x0, -y0), shifted_frame, ratio, values[product.coverage],
+                        in_place=True)
     moved = view.copy()
     moved[:, 2] -= (x0, y0)
     return view_cut(photo, view, size), view_cut(worn, moved, size)
 
 
 def shifted(found, dx: float, dy: float):
-    """A found region (LipsFound) moved by (dx, dy) px: its loops and box (the rest as it was)."""
+    """A found region (RegionFound) moved by (dx, dy) px: its loops and box (the rest as it was)."""
     import dataclasses
 
     offset = np.array([dx, dy], np.float32)

@@ -8,6 +8,7 @@ import time
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, StringProperty
 
+from vto_core.cli import either
 from vto_core.errors import VtoError, failure_line
 
 from vto_core.products import LIPSTICK, PRODUCTS, get_product, product_of_target
@@ -133,8 +134,9 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
     model_path: StringProperty(name="Model", subtype="FILE_PATH", description="Encoder (.onnx); default: the panel's")
     quality: EnumProperty(name="Quality", items=QUALITY_ITEMS, default="FAST")
     find_region: BoolProperty(name="Find Region", default=True,
-                              description="Find the product's region in the photo (the lips, the hair); a product "
-                                          "that finds none yet (eye shadow) reads the photo as framed on it")
+                              description="Find the product's region in the photo ("
+                                          f"{either(p.region for p in PRODUCTS.values())}); off: the image or crop "
+                                          "is taken as it is, as framed on it")
     # The older names of find_region, one a product, still taken from scripts
     find_lips: BoolProperty(name="Find Lips", default=True, options={"HIDDEN"}, description="find_region's older name")
     find_hair: BoolProperty(name="Find Hair", default=True, options={"HIDDEN"}, description="find_region's older name")
@@ -171,7 +173,7 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
                 raise VtoError("no material: pass material=NAME or select an object with a material")
             stored = getattr(material, "vto_match", None)
         else:
-            stored = getattr(context.scene, "vto_hair_match", None)
+            stored = apply.stage_settings(context.scene, product)
         settings = self.settings(stored)
         if not self.properties.is_property_set("quality") and settings["quality"] not in product.fit.offered:
             settings["quality"] = "FAST"  # what the panel shows: it offers no other for this renderer
@@ -194,7 +196,7 @@ class VTO_OT_match_from_photo(bpy.types.Operator):
             self.report({"INFO"}, note)
         if stored is not None:
             remember(stored, job.renderer, result["values"], result["model"], result["seconds"])
-        if job.product.tryon and stored is not None and not another_thread_renders():
+        if job.product.kind.tryon and stored is not None and not another_thread_renders():
             # the panel's Preview on Photo, after Match, on the photo Match read (not while Blender renders: a render
             # now would wait for the Python lock that render's thread needs, as Better does)
             preview.refresh(bpy.data.materials[job.material_name], job.prepared["reference"].whole)
@@ -304,7 +306,7 @@ def another_thread_renders() -> bool:
 
 
 class VTO_OT_preview_on_photo(bpy.types.Operator):
-    """Try the material's current lipstick values on the reference photo's lips (changes nothing in the file)"""
+    """Try the material's current values on the product's region of the reference photo (changes nothing)"""
 
     bl_idname = "vto.preview_on_photo"
     bl_label = "Preview on Photo"

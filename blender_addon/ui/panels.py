@@ -100,7 +100,7 @@ def draw_match(layout, context, props, product: Product, material_name: str = ""
     """The shared body: reference, crop, mask, model, quality, Match, and the values last written."""
     column = split_column(layout)
     draw_reference(column, props, f"{product.target}:{material_name}", product)
-    if product.tryon and material_name:
+    if product.kind.tryon and material_name:
         draw_preview(column, bpy.data.materials[material_name])
     preference = preference_model(context, product.name)
     model = apply.resolve_model(product.name, props.model_path, preference)
@@ -200,7 +200,7 @@ class VTO_PT_match_shader(SidebarPanel, bpy.types.Panel):
 
 
 class VTO_PT_match_hair(SidebarPanel, bpy.types.Panel):
-    """Match from photo for the scene's VTO hair compositor groups"""
+    """Match from photo for the scene's VTO compositor stages (the hair colour's groups)"""
 
     bl_idname = "VTO_PT_match_hair"
 
@@ -210,12 +210,12 @@ class VTO_PT_match_hair(SidebarPanel, bpy.types.Panel):
         return getattr(space, "tree_type", "") == "CompositorNodeTree" and context.scene is not None
 
     def draw(self, context):
-        product = apply.compositor_product()
-        if not apply.group_nodes(product, context.scene):
-            self.layout.label(text=f"No {product.group_text} in this compositor")
-            self.layout.operator(VTO_OT_add_hair_compositor.bl_idname, icon="NODETREE")
-            return
-        draw_match(self.layout, context, context.scene.vto_hair_match, product)
+        for product in apply.compositor_products():
+            if not apply.group_nodes(product, context.scene):
+                self.layout.label(text=f"No {product.group_text} in this compositor")
+                self.layout.operator(VTO_OT_add_hair_compositor.bl_idname, icon="NODETREE")
+                continue
+            draw_match(self.layout, context, apply.stage_settings(context.scene, product), product)
 
 
 class VTO_PT_add_lipstick(bpy.types.Panel):

@@ -23,7 +23,7 @@ def material_values(material) -> tuple[object, dict[str, float]]:
     """(the material's product, its every parameter as the material's first group node holds it (linked inputs at
     defaults)); VtoError where the material uses no product's group or its product has no try-on."""
     product = material_product(material)
-    if product is None or not product.tryon:
+    if product is None or not product.kind.tryon:
         raise VtoError(f"material '{material.name}' uses no group that can be tried on a photo (VTO Lipstick)")
     spec = get_spec(product.name)
     return product, spec.full_values(node_values(group_nodes(product, material)[0], spec))

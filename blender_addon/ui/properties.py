@@ -8,12 +8,26 @@ import json
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, PointerProperty, StringProperty
 
+from vto_core.cli import either
+from vto_core.products import PRODUCTS, product_list
+
+
+def _fast_fit(product) -> str:
+    """What Fast adds for a product whose Fast fits the colour imitator (FitPolicy.fast_fits)."""
+    polish = product.fit.polish_passes
+    seconds = product.fit.seconds.get("FAST")
+    return (f"; for {product.name}, fitted to the {product.region}'s colour through the colour imitator"
+            + (f", then checked and corrected on {polish} passes of the {product.name} {product.kind.name}"
+               if polish else "") + (f" (at most {seconds[1]:g} s)" if seconds else ""))
+
+
+_FRAMED = [p for p in PRODUCTS.values() if p.face_regions]  # a mask frames the reference as the training renders do
+_UNFRAMED = [p for p in PRODUCTS.values() if not p.face_regions]
 QUALITY_ITEMS = [
-    ("FAST", "Fast", "The encoder's estimate of the photo with its light taken out (milliseconds, no render); for "
-                     "hair, fitted to the hair's colour through the colour imitator, then checked and corrected on "
-                     "three passes of the hair stage (under a second)"),
-    ("BETTER", "Better", "The estimate fitted through the renderer to the colour of the photo's lips or hair (a "
-                         "few seconds)"),
+    ("FAST", "Fast", "The encoder's estimate of the photo with its light taken out (milliseconds, no render)"
+                     + "".join(_fast_fit(p) for p in PRODUCTS.values() if p.fit.fast_fits)),
+    ("BETTER", "Better", "The estimate fitted through the renderer to the colour of the photo's "
+                         f"{either(p.region for p in PRODUCTS.values())} (a few seconds)"),
     ("BEST", "Best", "As Better, on more default scenes with more renders (several seconds)"),
 ]
 
@@ -38,10 +52,12 @@ class VTO_PG_match_settings(bpy.types.PropertyGroup):
                               description="x, y, width, height from the top-left corner: in pixels, or fractions of "
                                           "the image when all four are at most 1")
     mask_path: StringProperty(name="Mask", subtype="FILE_PATH",
-                              description="Optional mask image. Lipstick: white = the lips, the reference is "
-                                          "framed around them as the training renders frame lips (instead of "
-                                          "finding them). Hair: white = the hair (the encoder reads its largest "
-                                          "square, Better and Best all of it)")
+                              description="Optional mask image: white = the product's region ("
+                                          f"{either(p.region for p in PRODUCTS.values())})"
+                                          + (f". {product_list(_FRAMED)}: the reference is framed around it as the "
+                                             "training renders frame it (instead of finding it)" if _FRAMED else "")
+                                          + (f". {product_list(_UNFRAMED)}: the encoder reads its largest square, "
+                                             "Better and Best all of it" if _UNFRAMED else ""))
     model_path: StringProperty(name="Model", subtype="FILE_PATH",
                                description="An encoder (.onnx) for this material only; empty: the add-on "
                                            "preferences' model, else the shipped one")
@@ -81,10 +97,12 @@ def remember(props, renderer: str, values: dict[str, float], model: str, seconds
 def register() -> None:
     bpy.utils.register_class(VTO_PG_match_settings)
     bpy.types.Material.vto_match = PointerProperty(type=VTO_PG_match_settings)
-    bpy.types.Scene.vto_hair_match = PointerProperty(type=VTO_PG_match_settings)
+    for product in (p for p in PRODUCTS.values() if not p.is_material):  # Scene.vto_hair_match: a stage's settings
+        setattr(bpy.types.Scene, f"vto_{product.name}_match", PointerProperty(type=VTO_PG_match_settings))
 
 
 def unregister() -> None:
-    del bpy.types.Scene.vto_hair_match
+    for product in (p for p in PRODUCTS.values() if not p.is_material):
+        delattr(bpy.types.Scene, f"vto_{product.name}_match")
     del bpy.types.Material.vto_match
     bpy.utils.unregister_class(VTO_PG_match_settings)

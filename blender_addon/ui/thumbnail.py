@@ -1,5 +1,5 @@
-"""The panel's thumbnail of the reference: the picture, the crop, the lips or the hair found outlined, in a preview
-collection (no file written)."""
+"""The panel's thumbnail of the reference: the picture, the crop, the face regions (the lips, the lids) or the hair
+found outlined, in a preview collection (no file written)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,6 @@ from vto_core.errors import VtoError
 from vto_core.photo.face_reader import apply_matrix
 from vto_core.photo.framing import region_view
 from vto_core.photo.photo_reader import crop_box, load_reference
-from vto_core.products import LIPS
 
 from ..matching.reference import absolute_path, datablock_pixels, read_mask
 from ..shipped import photo_reader
@@ -19,7 +18,7 @@ from .properties import find_region
 
 SIZE = 128  # pixels of the square thumbnail
 CROP_COLOUR = (1.0, 0.78, 0.1)  # the crop's outline: Blender's selection orange-yellow
-LIPS_COLOUR = (0.2, 0.9, 1.0)  # the lips found: cyan, apart from any lip colour
+LIPS_COLOUR = (0.2, 0.9, 1.0)  # a face region found (the lips, a lid): cyan, apart from any lip or lid colour
 HAIR_COLOUR = (0.3, 1.0, 0.3)  # the hair found: green, apart from any hair colour
 MASK_DIM = 0.35  # outside the mask, the picture at this brightness
 
@@ -59,11 +58,12 @@ def outline(canvas: np.ndarray, points: np.ndarray, colour, width: int = 2) -> N
         canvas[y, x, :3] = colour
 
 
-def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None, hair=None, regions=()) -> np.ndarray:
+def compose(reference: np.ndarray, crop, mask: np.ndarray | None, found=None, hair=None, regions=(),
+            product=None) -> np.ndarray:
     """(SIZE, SIZE, 4) RGBA, top row first: the reference fitted and centred on grey, the mask dimmed, the crop drawn,
-    the face regions found (`regions`: [(FaceRegion, LipsFound)], both eyes' lids; or `lips` alone: their outer
-    contours, and the frame the encoder reads of each) and the hair found (vto_core.photo.hair_locator.HairFound: its
-    outline)."""
+    the face regions found (`regions`: [(FaceRegion, RegionFound)], both eyes' lids; or `found` alone, a RegionFound
+    of `product`'s face_region: their outer loops, and the frame the encoder reads of each) and the hair found
+    (vto_core.photo.hair_locator.HairFound: its outline)."""
     from vto_core.imageio import resize
 
     height, width = reference.shape[:2]
@@ -81,8 +81,8 @@ def compose(reference: np.ndarray, crop, mask: np.ndarray | None, lips=None, hai
         edge = small & ~(np.roll(small, 1, 0) & np.roll(small, -1, 0) & np.roll(small, 1, 1) & np.roll(small, -1, 1))
         canvas[top:top + h, left:left + w, :3][edge] = HAIR_COLOUR
     frames = []
-    for region, found in list(regions) or ([(LIPS, lips)] if lips is not None else []):
-        # the outer contour: at thumbnail size a mouth is a few pixels, the inner one would fill it
+    for region, found in list(regions) or ([(product.face_region, found)] if found is not None else []):
+        # the outer loop: at thumbnail size a mouth is a few pixels, its inner one would fill it
         outline(canvas, np.asarray(found.outer, np.float64) * scale + (left, top), LIPS_COLOUR, width=1)
         if found.how == "face":  # the frame the encoder reads, turned with a tilted face, on the photo as shown
             view, size, turn = region_view(found, region)
@@ -115,8 +115,9 @@ def reference_pixels(props) -> np.ndarray:
 def icon(props, name: str, product) -> tuple[int, str]:
     """(the thumbnail's icon id, a note or "") or (0, why there is none); remade only when what it shows has changed.
 
-    With Find Lips (Find Hair) on and no mask (nor, for hair, a crop), the lips (the hair) are found as Match will
-    find them, and outlined; the note says what the locator said (e.g. which face, or that it found none)."""
+    With Find Lips (Find Hair) on and no mask (nor, for hair, a crop), the product's face regions (the hair) are found
+    as Match will find them, and outlined; the note says what the locator said (e.g. which face, or that it found
+    none)."""
     key = source_key(props, product)
     if _previews is not None and _made.get(name, (None,))[0] == key:
         return _made[name][1], _made[name][2]

@@ -281,7 +281,7 @@ def get_product(name):
 def lips_found(path):
     """What the add-on's lips locator finds in the reference: its box, how, score, and the frame the encoder reads."""
     reference = extension("matching.reference").read_reference("lipstick", {"image_path": path})
-    lips = reference.lips
+    lips = reference.found
     return {"module": extension("matching.reference").__name__, "box": [int(v) for v in lips.box], "how": lips.how,
             "faces": int(lips.faces), "score": round(float(lips.score), 4), "frame": [int(v) for v in reference.box],
             "size": list(reference.whole.shape[:2])}

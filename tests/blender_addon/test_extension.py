@@ -23,6 +23,8 @@ import pytest
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 pytest.importorskip("bpy")
 
+from vto_core.products import product_names  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[2]
 ONNXRUNTIME = "1.18.1"  # cp311: Blender 4.2-5.0
 ONNXRUNTIME_313 = "1.20.0"  # cp313: Blender 5.1+, the first onnxruntime with cp313 wheels
@@ -30,7 +32,7 @@ PYTHON = f"python{sys.version_info[0]}.{sys.version_info[1]}"  # bpy 4.5 and 5.0
 # Blender's own Python ships these; the venv's other packages (its onnxruntime among them) stay out of sight.
 # bpy's own requirements too: Blender 5.2's extensions add-on imports cattrs when it registers.
 # Each declared product's default encoder and model card ship in the zip (scripts/build_extension.py shipped_models).
-SHIPPED_MODELS = [f"{name}_encoder{suffix}" for name in ("lipstick", "hair", "eyeshadow")
+SHIPPED_MODELS = [f"{name}_encoder{suffix}" for name in product_names()
                   for suffix in (".onnx", ".md")]
 CARDS = sorted(f"models/{p.name}" for p in (ROOT / "blender_addon" / "models").glob("*.md"))
 BLENDER_PYTHON_MODULES = ["bpy", "numpy", "numpy.libs", "OpenImageIO", "attr", "attrs", "cattrs", "requests",

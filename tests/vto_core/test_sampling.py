@@ -7,7 +7,7 @@ from scipy.stats import truncnorm
 from vto_core.errors import VtoError
 from vto_core.presets import load_presets, preset_matrix
 from vto_core.sampling import ParamSampler, PresetKernels, PresetNormal, at_lightness, truncated_standard_normal
-from vto_core.products import get_spec
+from vto_core.products import get_spec, product_names
 
 
 def make(renderer, ratio=0.5, seed=0, params=None):
@@ -37,7 +37,7 @@ def test_sample_i_does_not_depend_on_what_was_drawn_before():
 
 
 def test_samples_stay_in_range_and_cover_it():
-    for renderer in ("lipstick", "hair", "eyeshadow"):
+    for renderer in product_names():
         sampler = make(renderer, ratio=0.5)
         unit = np.stack([sampler.sample_unit(i) for i in range(600)])
         assert unit.min() >= 0.0 and unit.max() <= 1.0

@@ -94,12 +94,13 @@ def opening_contrast(image: np.ndarray, landmarks: np.ndarray, region: FaceRegio
 
 def white_chroma(image: np.ndarray, landmarks: np.ndarray, region: FaceRegion) -> float | None:
     """The lower quartile of the chroma of the brightest third of the opening's pixels over the median chroma of the
-    skin loop's (near 0.3 where an eye's white shows, near 1 where skin covers it); None where either has too few
-    pixels."""
-    if not (region.opening and region.skin):
+    bare skin's outer loop's (near 0.3 where an eye's white shows, near 1 where skin covers it); None where either has
+    too few pixels or the region has no bare skin."""
+    if not (region.opening and region.bare_skin is not None):
         return None
     points = np.asarray(landmarks, np.float64)
-    opening, skin = inside_lab(image, points[list(region.opening)]), inside_lab(image, points[list(region.skin)])
+    opening = inside_lab(image, points[list(region.opening)])
+    skin = inside_lab(image, points[list(region.bare_skin.loops[0])])
     if len(opening) < MIN_OPENING_PIXELS or len(skin) < MIN_OPENING_PIXELS:
         return None
     bright = opening[opening[:, 0] >= np.percentile(opening[:, 0], 67)]

@@ -1,5 +1,5 @@
-"""How a photo's lips are framed for what reads or draws them: the square the default lips scene frames lips in,
-on the pixel grid, or turned with a tilted face. numpy only, so this runs inside Blender's extension.
+"""How a photo's face region (the lips, a lid) is framed for what reads or draws it: the square its default scene
+frames it in, on the pixel grid, or turned with a tilted face. numpy only, so this runs inside Blender's extension.
 
 Shapes: images (H, W, C); boxes (x, y, w, h) in pixels from the top-left corner; a view is a (2, 3) affine map from
 the pixel coordinates of an n x n frame to the photo's (pixel centres at +0.5).
@@ -11,13 +11,14 @@ import math
 
 import numpy as np
 
-from ..products import LIPS, FaceRegion
+from ..products import FaceRegion
 from .face_reader import apply_matrix, roll_of, square_matrix, warp
 from .photo_light import neutral_photo
 
 MIN_SIZE = 8  # pixels: the smallest side of a reference (or a crop of one) that an estimate is made from
-# A face rolled more than this is framed turned upright (lips and hair) before the encoder reads it; below it the frame
-# stays on the pixel grid (no resampling). The 18 portraits' own rolls are -9 to 3 degrees, 14 of them within 5.
+# A face rolled more than this is framed turned upright (face regions and hair) before the encoder reads it; below it
+# the frame stays on the pixel grid (no resampling). The 18 portraits' own rolls are -9 to 3 degrees, 14 of them
+# within 5.
 ROLL_TOLERANCE = math.radians(5)
 
 
@@ -74,8 +75,8 @@ def square_view(centre: np.ndarray, side: float, angle: float) -> tuple[np.ndarr
     return square_matrix(np.asarray(centre, np.float64), side, angle, size), size
 
 
-def region_view(found, region: FaceRegion = LIPS) -> tuple[np.ndarray, int, float]:
-    """The frame Match reads a found face region (vto_core.photo.lips_locator.LipsFound) through: (the view (2, 3)
+def region_view(found, region: FaceRegion) -> tuple[np.ndarray, int, float]:
+    """The frame Match reads a found face `region` (vto_core.photo.lips_locator.RegionFound) through: (the view (2, 3)
     from an n x n frame to the photo, n, the turn in rad). On the pixel grid (region_frame of the mask, n its side)
     unless the face is rolled past ROLL_TOLERANCE: then turned with it (turned_square)."""
     turn = face_roll(found.landmarks) if found.how == "face" else 0.0

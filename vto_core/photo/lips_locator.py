@@ -38,14 +38,17 @@ MIN_LENS_MATCH, LENS_MARGIN = 0.4, 0.1
 
 
 @dataclass
-class LipsFound:
-    """What LipsLocator.locate found in an image."""
+class RegionFound:
+    """A face region found in an image: the lips (LipsLocator.locate), an eye's lid or any other face-mesh region
+    (vto_core.photo.photo_reader.PhotoReader.locate_region)."""
 
-    mask: np.ndarray  # (H, W) float32 0/1: the lips (outer contour minus inner: no teeth, no mouth opening; a closed
-    # mouth's inner contour is closed first, closed_mouth)
+    mask: np.ndarray  # (H, W) float32 0/1: the region (its outer loop minus its hole: for the lips, no teeth, no mouth
+    # opening; a closed mouth's inner contour is closed first, closed_mouth)
     box: tuple[int, int, int, int]  # x, y, w, h of the mask's tight box
-    outer: np.ndarray  # (K, 2) float32 x, y of the outer lip contour in order; empty for a close-up
-    inner: np.ndarray  # (L, 2) float32 the inner contour (closed on a closed mouth); empty for a close-up
+    outer: np.ndarray  # (K, 2) float32 x, y of the region's outer loop in order (the outer lip contour); empty for a
+    # close-up
+    inner: np.ndarray  # (L, 2) float32 its hole's loop (the inner lip contour, closed on a closed mouth); empty where
+    # it has none (an eye's lid) and for a close-up
     how: str  # "face" or "close-up"
     faces: int  # faces found (detections the face mesh confirms)
     score: float  # the mesh's face probability, or the close-up test's score
@@ -161,7 +164,7 @@ class LipsLocator:
     def __init__(self, reader: FaceReader):
         self.reader = reader
 
-    def locate(self, image: np.ndarray, face: FaceRead | None = None) -> LipsFound:
+    def locate(self, image: np.ndarray, face: FaceRead | None = None) -> RegionFound:
         """(H, W, 3) display sRGB (any size; NaN, inf and HDR values are cleaned; (H, W), (H, W, 4) and integer
         pixels taken too) -> the lips; VtoError 'no lips found ...' when there is neither a face nor a close-up of lips.
 
@@ -180,8 +183,8 @@ class LipsLocator:
             if not box[2]:
                 raise VtoError("no lips found: the face is too small in this image (its lips cover no pixel); "
                                "crop the face or give a mask")
-            return LipsFound(mask, box, outer, inner, "face", face.faces, face.score, face.note, landmarks, face.box,
-                             face.depth)
+            return RegionFound(mask, box, outer, inner, "face", face.faces, face.score, face.note, landmarks, face.box,
+                               face.depth)
         rules, lens = close_up_test(image)
         if min(rules.values()) <= 0:
             raise VtoError("no lips found: no face in the image, and it is not a close-up of lips; crop the lips or "
@@ -218,13 +221,13 @@ def closed_mouth(landmarks: np.ndarray) -> np.ndarray:
 
 
 def close_up(shape: tuple[int, int], lens: tuple[float, float, float, float], score: float, note: str
-             ) -> LipsFound:
+             ) -> RegionFound:
     """A close-up of lips (H, W): the whole image is read; the lips are the lens `lens` (LENS_SHAPES)."""
     height, width = shape
     mask = lens_mask(lens, height, width).astype(np.float32)
     empty = np.zeros((0, 2), np.float32)
-    return LipsFound(mask, (0, 0, width, height), lens_outline(lens, height, width), empty, "close-up", 0,
-                     float(score), note)
+    return RegionFound(mask, (0, 0, width, height), lens_outline(lens, height, width), empty, "close-up", 0,
+                       float(score), note)
 
 
 def cached_locator(detector_path: str | Path, landmarks_path: str | Path) -> LipsLocator:

@@ -98,25 +98,26 @@ def crop_box(crop, width: int, height: int) -> tuple[int, int, int, int]:
 class Reference:
     """A reference made ready for a renderer: what the encoder reads, and the region the material covers.
 
-    image: (H, W, 3) what the encoder reads (lips framed as the default scene frames them; a square of hair).
-    region: (rgb (h, w, 3), mask (h, w)) the pixels of the lips or hair, for a fit of their colour statistics
-    (blender_addon.matching.photo_fit); None when unknown. lips: what the lips locator found, in the coordinates of
-    `whole` (or None); hair: what the hair locator found (or None). box: (x, y, w, h) of `image` inside `whole`. notes:
-    what the user should be told. light: the photo's light (vto_core.photo.photo_light.PhotoLight) that was taken out
-    of `image` and `region`, or None where the photo was read as it is (`whole` is always as given).
+    image: (H, W, 3) what the encoder reads (a face region, the lips or a lid, framed as the default scene frames it;
+    a square of hair). region: (rgb (h, w, 3), mask (h, w)) the pixels of the face region or hair, for a fit of their
+    colour statistics (blender_addon.matching.photo_fit); None when unknown. found: the face region found (RegionFound:
+    the lips, the first lid), in the coordinates of `whole` (or None); hair: what the hair locator found (or None).
+    box: (x, y, w, h) of `image` inside `whole`. notes: what the user should be told. light: the photo's light
+    (vto_core.photo.photo_light.PhotoLight) that was taken out of `image` and `region`, or None where the photo was
+    read as it is (`whole` is always as given).
     """
 
     image: np.ndarray
     region: tuple[np.ndarray, np.ndarray] | None
     whole: np.ndarray
     box: tuple[int, int, int, int]
-    lips: object = None
+    found: object = None
     notes: list[str] = field(default_factory=list)
     light: object = None
     hair: object = None  # vto_core.photo.hair_locator.HairFound where the hair was found in a portrait
     turn: float = 0.0  # radians, clockwise: how far `image` is turned from the photo (the face's roll), 0 on the grid
     views: list = field(default_factory=list)  # (h, w, 3) each: the product's other places (the other eye), framed alike
-    regions: list = field(default_factory=list)  # [(FaceRegion, LipsFound), ...]: each face region read, `lips` first
+    regions: list = field(default_factory=list)  # [(FaceRegion, RegionFound), ...]: each region read, `found` first
 
     @property
     def images(self) -> list[np.ndarray]:
@@ -136,25 +137,33 @@ def framed(whole: np.ndarray, found, region: FaceRegion, light) -> tuple[np.ndar
     return image, mask, view, size, turn
 
 
+def by_lips_locator(region: FaceRegion) -> bool:
+    """Whether `region` is read by the lips locator (vto_core.photo.lips_locator) rather than by its loops alone: a
+    region whose hole opens (the mouth between the lips: the locator closes a closed mouth's gap and keeps teeth and
+    opening out, and reads a close-up of lips where no face shows), its mask then the lips' own."""
+    return region.hole_opens
+
+
 def turn_note(angle: float) -> list[str]:
     """[a note that the face was read upright] where it is turned by ROLL_NOTE or more, else []."""
     return [f"face turned {math.degrees(angle):+.0f} degrees: read upright"] if abs(angle) >= ROLL_NOTE else []
 
 
-def in_whole(lips, box: tuple[int, int, int, int], shape: tuple[int, int]):
-    """Lips found inside `box` (x, y, w, h) of an image of `shape` (H, W), in that image's coordinates."""
+def in_whole(found, box: tuple[int, int, int, int], shape: tuple[int, int]):
+    """A face region found (RegionFound) inside `box` (x, y, w, h) of an image of `shape` (H, W), in that image's
+    coordinates."""
     import dataclasses
 
     x, y, w, h = box
     if (x, y, w, h) == (0, 0, shape[1], shape[0]):
-        return lips
+        return found
     mask = np.zeros(shape, np.float32)
-    mask[y:y + h, x:x + w] = lips.mask
+    mask[y:y + h, x:x + w] = found.mask
     offset = np.array([x, y], np.float32)
-    lx, ly, lw, lh = lips.box
-    landmarks = None if lips.landmarks is None else np.asarray(lips.landmarks) + offset
-    return dataclasses.replace(lips, mask=mask, box=(lx + x, ly + y, lw, lh), outer=np.asarray(lips.outer) + offset,
-                               inner=np.asarray(lips.inner) + offset, landmarks=landmarks)
+    lx, ly, lw, lh = found.box
+    landmarks = None if found.landmarks is None else np.asarray(found.landmarks) + offset
+    return dataclasses.replace(found, mask=mask, box=(lx + x, ly + y, lw, lh), outer=np.asarray(found.outer) + offset,
+                               inner=np.asarray(found.inner) + offset, landmarks=landmarks)
 
 
 def refuse_monochrome(whole: np.ndarray, product: str, toned: bool = True, facts: dict | None = None) -> None:
@@ -179,8 +188,8 @@ class PhotoReader:
         self.last_found: dict = {}
 
     def locate_lips(self, image: np.ndarray, face=None):
-        """vto_core.photo.lips_locator.LipsFound for (H, W, 3), from `face` where it was read already; VtoError 'no
-        lips found ...' where there are none."""
+        """vto_core.photo.lips_locator.RegionFound of the lips in (H, W, 3), from `face` where it was read already;
+        VtoError 'no lips found ...' where there are none."""
         from .lips_locator import cached_locator
 
         return cached_locator(self.detector, self.landmarks).locate(image, face)
@@ -213,14 +222,14 @@ class PhotoReader:
         return facts["face"]
 
     def locate_region(self, region: FaceRegion, image: np.ndarray, face=None):
-        """A face-mesh region of (H, W, 3) (a LipsFound: its mask, box and loops), from `face` where it was read
-        already. The lips by their own locator (a close-up of lips without a face too); any other region by its loops
-        on the face mesh, where the photo shows it (face_regions.unseen_reason). VtoError 'no ... found' where there is
-        none."""
-        if region == LIPS:
+        """A face-mesh region of (H, W, 3) (a RegionFound: its mask, box and loops), from `face` where it was read
+        already. A region whose hole opens (the lips: by_lips_locator) by the lips locator (a close-up of lips without
+        a face too); any other region by its loops on the face mesh, where the photo shows it
+        (face_regions.unseen_reason). VtoError 'no ... found' where there is none."""
+        if by_lips_locator(region):
             return self.locate_lips(image, face)
         from .face_regions import region_mask, region_polygons, unseen_reason
-        from .lips_locator import LipsFound
+        from .lips_locator import RegionFound
 
         face = cached_reader(self.detector, self.landmarks).read(image) if face is None else face
         if face is None:
@@ -235,12 +244,12 @@ class PhotoReader:
             raise VtoError(f"no {region.name} found: the face is too small in this image (its {region.name} cover no "
                            "pixel); crop the face or give a mask")
         inner = polygons[1] if len(polygons) > 1 else np.zeros((0, 2), np.float32)
-        return LipsFound(mask, box, polygons[0], inner, "face", face.faces, face.score, face.note, face.landmarks,
-                         face.box, face.depth)
+        return RegionFound(mask, box, polygons[0], inner, "face", face.faces, face.score, face.note, face.landmarks,
+                           face.box, face.depth)
 
     def locate_regions(self, product, image: np.ndarray, face=None) -> tuple[list, list[str]]:
         """Each of `product`'s face regions (face_regions: the right eye's lid, then the left's) the photo (H, W, 3)
-        shows: ([(region, LipsFound), ...] in that order, notes on those it does not show). VtoError (the first
+        shows: ([(region, RegionFound), ...] in that order, notes on those it does not show). VtoError (the first
         region's) where it shows none."""
         found, problems = [], []
         for region in product.face_regions:
@@ -260,8 +269,8 @@ class PhotoReader:
         encoder: a crop, a mask (framed by region_frame), or, with neither, the region the locator finds (framed
         likewise; a product worn in several places, each eye, is read in each: the first is `image`, the others
         `views`, each turned as the default scene shows the first). find=False takes the whole image (or the crop) as
-        it is. A crop in which the locator finds no lips is taken as the artist drew it: the lips where the default
-        scene frames them.
+        it is. A crop in which the locator finds no region is taken as the artist drew it: for a region the lips
+        locator reads (by_lips_locator), the lips where the default scene frames them; any other as framed on it.
         neutral_light: where the region is known, the photo's light is read from the skin beside the lips (of the
         face found, else beside the region: vto_core.photo.photo_light) and taken out, so the estimate is of the
         product, not of the light it was photographed in."""
@@ -270,53 +279,54 @@ class PhotoReader:
         refuse_monochrome(whole, product.name, facts=facts)
         height, width = whole.shape[:2]
         box = crop_box(crop, width, height) if crop is not None else (0, 0, width, height)
-        notes, found = [], []
+        notes, regions = [], []
         if mask is None and find:
             try:
                 face = self.face_of(whole, facts) if crop is None else None
-                found, missing = self.locate_regions(product, cut(whole, box), face)
+                regions, missing = self.locate_regions(product, cut(whole, box), face)
                 notes += missing
             except VtoError:
                 if crop is None:
                     raise
-                if region == LIPS:
+                if by_lips_locator(region):  # a close-up of lips: the lens where the default scene frames them
                     from .lips_locator import DEFAULT_LENS, close_up
 
-                    found = [(region, close_up((box[3], box[2]), DEFAULT_LENS, 0.0, "no lips found in the crop: the "
-                                               "crop is taken as the lips, framed as the default scene frames them"))]
+                    regions = [(region, close_up((box[3], box[2]), DEFAULT_LENS, 0.0, "no lips found in the crop: "
+                                                 "the crop is taken as the lips, framed as the default scene frames "
+                                                 "them"))]
                 else:  # a crop of one eye: as the artist framed it
                     notes.append(f"no {region.name} found in the crop: the crop is read as framed on them")
-            found = [(where, in_whole(lips, box, (height, width))) for where, lips in found]
-            if found:
-                region, lips = found[0]
-                mask = lips.mask
-                notes += [lips.note] if lips.note else []
+            regions = [(where, in_whole(found, box, (height, width))) for where, found in regions]
+            if regions:
+                region, found = regions[0]
+                mask = found.mask
+                notes += [found.note] if found.note else []
         light = None
         if neutral_light and mask is not None:
-            light = light_of(whole, self.light_mask(found[0] if found else None, mask))
+            light = light_of(whole, self.light_mask(regions[0] if regions else None, mask))
             notes.append(light.describe())
-        if crop is None and found:
-            views = [framed(whole, lips, where, light) for where, lips in found]
+        if crop is None and regions:
+            views = [framed(whole, found, where, light) for where, found in regions]
             image, framed_mask, view, size, turn = views[0]
             others = [other[0] for other in views[1:]]
             if turn:  # a tilted head: the region framed along the face's own axes, turned upright
-                return Reference(image, (image, framed_mask), whole, view_box(view, size, mask.shape), found[0][1],
-                                 notes + turn_note(turn), light, turn=turn, views=others, regions=found)
+                return Reference(image, (image, framed_mask), whole, view_box(view, size, mask.shape), regions[0][1],
+                                 notes + turn_note(turn), light, turn=turn, views=others, regions=regions)
             return Reference(image, (image, framed_mask), whole, (int(view[0, 2]), int(view[1, 2]), size, size),
-                             found[0][1], notes, light, views=others, regions=found)
+                             regions[0][1], notes, light, views=others, regions=regions)
         if crop is None and mask is not None:
             box = region_frame(mask, region.frame_share)
         image = cut_read(whole, box, light)
         framed_region = None if mask is None else (image, cut(mask, box))
-        return Reference(image, framed_region, whole, box, found[0][1] if found else None, notes, light,
-                         regions=found)
+        return Reference(image, framed_region, whole, box, regions[0][1] if regions else None, notes, light,
+                         regions=regions)
 
     @staticmethod
     def light_mask(found, mask: np.ndarray) -> np.ndarray:
         """The mask (H, W) whose skin around it the photo's light is read from: the lips of the face mesh of `found`
-        ((FaceRegion, LipsFound) or None; one light for the whole face, read where the default lips scene calibrated
-        it), else `mask` itself."""
-        if found is None or found[0] == LIPS or found[1].how != "face" or found[1].landmarks is None:
+        ((FaceRegion, RegionFound) or None; one light for the whole face, read where the default lips scene calibrated
+        it), else `mask` itself (a region the lips locator read is the lips already: by_lips_locator)."""
+        if found is None or by_lips_locator(found[0]) or found[1].how != "face" or found[1].landmarks is None:
             return mask
         found = found[1]
         from .face_regions import region_mask, region_polygons

@@ -16,7 +16,7 @@ pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
 from blender_addon.datasets.commands import cmd_dataset  # noqa: E402
-from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
+from blender_addon.renderers.product_lipstick import render_lipstick  # noqa: E402
 from vto_core import cli  # noqa: E402
 from vto_core.dataset import DatasetReader, shard_from_env, shard_range  # noqa: E402
 from vto_core.errors import VtoError  # noqa: E402

@@ -18,7 +18,7 @@ from vto_core.imageio import read_image, write_image  # noqa: E402
 from vto_core.inference import EncoderSession  # noqa: E402
 from vto_core.params_io import parse_params  # noqa: E402
 from vto_core.presets import load_presets  # noqa: E402
-from vto_core.products import get_spec  # noqa: E402
+from vto_core.products import LIPSTICK, get_spec  # noqa: E402
 
 MODEL = str(Path(__file__).resolve().parents[3] / "blender_addon" / "models" / "lipstick_encoder.onnx")
 RES, SAMPLES = 32, 4
@@ -106,7 +106,7 @@ def test_contact_sheet_tries_the_preset_on_a_portraits_lips_and_leaves_a_grey_bl
     of lips (no face) in the same batch: the grey blank, and the batch still writes its sheet."""
     import skimage.data
 
-    from blender_addon.renderers.tryon import around_lips, find_lips
+    from blender_addon.renderers.tryon import around_region, find_lips
     from vto_core.photo.framing import view_cut
     from vto_core.photo.tryon import feathered
 
@@ -123,8 +123,8 @@ def test_contact_sheet_tries_the_preset_on_a_portraits_lips_and_leaves_a_grey_bl
     sheet, _ = read_image(out / "sheet.png")
     assert sheet.shape == (2 * res, 3 * res, 3)
     photo, worn = sheet[:res, :res], sheet[:res, res:2 * res]
-    lips = find_lips(portrait)
-    view = around_lips(lips, res)
+    lips = find_lips(portrait, LIPSTICK)
+    view = around_region(lips, res)
     assert np.abs(photo - view_cut(portrait, view, res)).max() < 1 / 255  # the photo framed as the previews frame it
     reach = view_cut(feathered(lips.mask), view, res)[..., 0] > 0  # where the try-on may draw
     inside = view_cut(lips.mask, view, res)[..., 0] > 0.5
@@ -388,7 +388,7 @@ def test_eyeshadow_batch_reads_both_eyes_of_portraits_and_writes_its_presets_as_
         estimates = [photo_estimate(session, "eyeshadow", photos / name) for name in names]
         assert presets[product] == pytest.approx(median_values(session.spec, estimates), abs=1e-9)
     assert presets["plum"] != pytest.approx(presets["gold"], abs=1e-3)
-    assert EYESHADOW.asset_library and report["asset_library"] == str(out / "assets.blend")
+    assert EYESHADOW.kind.asset_library and report["asset_library"] == str(out / "assets.blend")
     assert_library_holds(library_rows(out / "assets.blend", "VTO Eye Shadow"), presets, out)
     assert report["sheet_no_tryon"] == {} and report["sheet_columns"] == ["photo", "try-on", "render"]
 

@@ -280,7 +280,7 @@ def test_a_whole_portrait_is_read_at_both_eyes_lids_and_covered_eyes_are_refused
     written = parse_params(str(out), "eyeshadow")
     assert all(abs(written[k] - expected[k]) < 1e-6 for k in EYESHADOW.spec.modelled)
     whole = read_image(portrait)[0]
-    face = read_reference("lipstick", {"image_path": str(portrait)}).lips.landmarks
+    face = read_reference("lipstick", {"image_path": str(portrait)}).found.landmarks
     for region in EYESHADOW.face_regions:  # dark lenses over both eyes
         (x0, y0), (x1, y1) = face[list(region.opening)].min(axis=0) - 8, face[list(region.opening)].max(axis=0) + 8
         whole[int(y0):int(y1), int(x0):int(x1)] = (0.05, 0.05, 0.06)

@@ -9,7 +9,7 @@ pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
 from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
-from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
+from blender_addon.renderers.product_lipstick import render_lipstick  # noqa: E402
 from blender_addon.matching.colour_fit import iter_polish_colour  # noqa: E402
 from blender_addon.matching.photo_fit import apparent_colour, iter_fit_photo, photo_values  # noqa: E402
 from blender_addon.renderers.product_lipstick import RENDERER as LIPS_SIDE, LIPS_POOL, iter_lips_pool  # noqa: E402

@@ -20,7 +20,7 @@ from vto_core.photo.lips_locator import DEFAULT_LENS, close_up  # noqa: E402
 from vto_core.photo.tryon import feathered  # noqa: E402
 from vto_core.presets import load_presets  # noqa: E402
 from blender_addon.renderers.product_lipstick import CORE_MEDIAN  # noqa: E402
-from vto_core.products import EYELIDS, LIPS, get_spec  # noqa: E402
+from vto_core.products import EYELIDS, LIPS, LIPSTICK, get_spec  # noqa: E402
 
 FACE = Path(__file__).resolve().parents[3] / "data" / "faces" / "nasa_william_oefelein.jpg"  # train split, bare lips
 SPEC = get_spec("lipstick")
@@ -41,7 +41,7 @@ def colour_miss(values, truth):
 
 def test_better_reads_the_product_back_from_a_wrong_start(made_up):
     photo, truth = made_up
-    target = scene_target(photo, (LIPS, find_lips(photo)), SCENE_FIT["BETTER"][0])
+    target = scene_target(photo, (LIPS, find_lips(photo, LIPSTICK)), SCENE_FIT["BETTER"][0])
     start = {**truth, "red": truth["red"] - 40, "green": truth["green"] + 35, "blue": truth["blue"] - 40}
     counts = []
     fitted = drain(iter_fit_photo_scene(SPEC, target, start, "BETTER", samples=8), counts.append)
@@ -51,7 +51,7 @@ def test_better_reads_the_product_back_from_a_wrong_start(made_up):
 
 def test_better_keeps_a_start_the_photo_already_shows(made_up):
     photo, truth = made_up
-    target = scene_target(photo, (LIPS, find_lips(photo)), SCENE_FIT["BETTER"][0])
+    target = scene_target(photo, (LIPS, find_lips(photo, LIPSTICK)), SCENE_FIT["BETTER"][0])
     fitted = drain(iter_fit_photo_scene(SPEC, target, truth, "BETTER", samples=8))
     assert colour_miss(fitted, truth) < 20 and abs(fitted["opacity"] - truth["opacity"]) < 0.15
 
@@ -64,7 +64,7 @@ def test_better_keeps_a_dark_opaque_product_the_photo_shows():
     truth = {k: SPEC.check_values(load_presets("lipstick")["Blackened Plum"])[k] for k in SPEC.modelled}
     face = FACE.parent / "london" / "london_012_neutral.jpg"  # a training person
     photo = tryon_lipstick(read_image(face)[0][..., :3], SPEC.full_values(truth), samples=8)
-    target = scene_target(photo, (LIPS, find_lips(photo)), SCENE_FIT["BETTER"][0])
+    target = scene_target(photo, (LIPS, find_lips(photo, LIPSTICK)), SCENE_FIT["BETTER"][0])
     fitted = drain(iter_fit_photo_scene(SPEC, target, truth, "BETTER", samples=8))
     assert fitted["opacity"] > 0.95
     assert float(np.mean([fitted[k] for k in COLOUR])) < float(np.mean([truth[k] for k in COLOUR])) + 8
@@ -78,7 +78,7 @@ def test_better_keeps_a_dark_product_opaque_where_the_lips_found_reach_past_the_
     truth = {k: SPEC.check_values(load_presets("lipstick")["Black Cherry"])[k] for k in SPEC.modelled}
     face = FACE.parent / "london" / "london_114_neutral.jpg"  # a training person
     photo = tryon_lipstick(read_image(face)[0][..., :3], SPEC.full_values(truth), samples=8)
-    target = scene_target(photo, (LIPS, find_lips(photo)), SCENE_FIT["BETTER"][0])
+    target = scene_target(photo, (LIPS, find_lips(photo, LIPSTICK)), SCENE_FIT["BETTER"][0])
     fitted = drain(iter_fit_photo_scene(SPEC, target, truth, "BETTER", samples=8))
     assert fitted["opacity"] > 0.95 and colour_miss(fitted, truth) < 6
 

@@ -7,7 +7,7 @@ import pytest
 pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
-from blender_addon.renderers.eyeshadow import render_eyeshadow, shadow_nodes  # noqa: E402
+from blender_addon.renderers.product_eyeshadow import RENDERER as EYESHADOW_SIDE, render_eyeshadow  # noqa: E402
 from blender_addon.renderers.node_utils import interface_names  # noqa: E402
 from blender_addon.renderers.nodes_eyeshadow import eyeshadow_group  # noqa: E402
 from blender_addon.renderers.products import blender_side  # noqa: E402
@@ -98,7 +98,7 @@ def test_the_lid_coordinate_input_overrides_the_attribute():
     values = {"opacity": 1.0, "red": 255.0, "green": 0.0, "blue": 255.0, "height": 0.3, "softness": 0.0}
     bare = render_eyeshadow({"opacity": 0.0}, 1, RES, SAMPLES)
     banded = render_eyeshadow(values, 1, RES, SAMPLES)
-    node = shadow_nodes(build_eye_scene())[0]
+    node = EYESHADOW_SIDE.scene_nodes(build_eye_scene())[0]
     try:
         node.inputs["Lid Coordinate"].default_value = 0.9
         off = render_eyeshadow(values, 1, RES, SAMPLES)

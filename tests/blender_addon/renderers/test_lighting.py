@@ -67,7 +67,7 @@ def test_a_grey_card_reads_the_metered_level_in_neutral_light(card_scene, seed):
 
 def test_portrait_lighting_shows_a_shade_alike_on_every_source():
     """The lips' mean colour varies from source to source far less under portrait light than under wide light."""
-    from blender_addon.renderers.lipstick import render_lipstick
+    from blender_addon.renderers.product_lipstick import render_lipstick
     from blender_addon.renderers.scene_lips import lips_mask
     from vto_core.presets import load_presets
 
@@ -86,7 +86,8 @@ def test_portrait_lighting_shows_a_shade_alike_on_every_source():
 
 
 def test_a_lighting_that_does_not_exist_is_one_line():
-    from blender_addon.renderers.scene_lips import build_lips_scene, use_lighting
+    from blender_addon.renderers.scene_build import use_lighting
+    from blender_addon.renderers.scene_lips import build_lips_scene
     from vto_core.errors import VtoError
 
     with pytest.raises(VtoError, match="lighting is wide or portrait, got 'studio'"):

@@ -6,7 +6,7 @@ import pytest
 pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
-from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
+from blender_addon.renderers.product_lipstick import render_lipstick  # noqa: E402
 from blender_addon.renderers.scene_furnace import (FURNACE_SCENE, furnace_scene, render_furnace,  # noqa: E402
                                                    seen_colour)
 from blender_addon.renderers.cycles import render_passes  # noqa: E402

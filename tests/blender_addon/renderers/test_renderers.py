@@ -13,7 +13,7 @@ bpy = pytest.importorskip("bpy")
 
 from blender_addon.renderers.products import blender_side, render  # noqa: E402
 from blender_addon.renderers.hair import render_hair_source, run_hair_stage  # noqa: E402
-from blender_addon.renderers.lipstick import render_lipstick  # noqa: E402
+from blender_addon.renderers.product_lipstick import render_lipstick  # noqa: E402
 from blender_addon.renderers.node_utils import interface_names  # noqa: E402
 from blender_addon.renderers.nodes_hair import color_group, swatch_group  # noqa: E402
 from blender_addon.renderers.nodes_lipstick import lipstick_group  # noqa: E402

@@ -17,6 +17,7 @@ from vto_core.imageio import read_image, resize, write_image  # noqa: E402
 from vto_core.photo.framing import region_view, view_cut  # noqa: E402
 from vto_core.photo.tryon import feathered  # noqa: E402
 from vto_core.presets import load_presets  # noqa: E402
+from vto_core.products import LIPS, LIPSTICK  # noqa: E402
 
 PHOTOS = Path(__file__).resolve().parents[3] / "benchmarks" / "photos"
 PRESETS = load_presets("lipstick")
@@ -47,7 +48,7 @@ def faces():
 @pytest.mark.parametrize("name", ["teeth", "closed", "moustache", "turned"])
 def test_each_face_gets_a_clean_render_on_its_lips_and_nowhere_else(name):
     photo = faces()[name]
-    lips = find_lips(photo)
+    lips = find_lips(photo, LIPSTICK)
     worn = tryon_lipstick(photo, PRESETS["Classic Red"], samples=SAMPLES)
     reach = feathered(lips.mask) > 0
     assert np.isfinite(worn).all() and worn.shape == photo.shape
@@ -63,8 +64,8 @@ def test_each_face_gets_a_clean_render_on_its_lips_and_nowhere_else(name):
 
 
 def test_the_crop_is_the_frame_match_reads_with_the_product_on_it(astronaut):
-    lips = find_lips(astronaut)
-    view, size, _ = region_view(lips)
+    lips = find_lips(astronaut, LIPSTICK)
+    view, size, _ = region_view(lips, LIPS)
     crop = tryon_lipstick(astronaut, PRESETS["Espresso"], crop=64, samples=SAMPLES)
     scaled = view.copy()
     scaled[:, :2] *= size / 64
@@ -75,7 +76,7 @@ def test_the_crop_is_the_frame_match_reads_with_the_product_on_it(astronaut):
 
 
 def test_lightness_follows_the_products_and_a_red_is_redder_than_a_nude(astronaut):
-    inside = find_lips(astronaut).mask > 0.5
+    inside = find_lips(astronaut, LIPSTICK).mask > 0.5
     lab = {name: srgb_to_lab(tryon_lipstick(astronaut, PRESETS[name], samples=SAMPLES)[inside].mean(0))
            for name in ("Espresso", "Classic Red", "Bare Nude")}
     assert lab["Espresso"][0] < lab["Classic Red"][0] < lab["Bare Nude"][0]
@@ -124,10 +125,10 @@ def test_in_place_draws_on_the_photo_itself_as_the_copy_would(astronaut):
 
 def test_the_previews_view_is_the_whole_photo_try_on_framed_around_the_lips(astronaut):
     """tryon_view draws on the part of the photo it shows: the pixels of the whole photo tried on, then cut."""
-    from blender_addon.renderers.tryon import around_lips, tryon_view
+    from blender_addon.renderers.tryon import around_region, tryon_view
 
-    shown, worn = tryon_view(astronaut, PRESETS["Classic Red"], 96, SAMPLES, 0)
-    view = around_lips(find_lips(astronaut), 96)
+    shown, worn = tryon_view(astronaut, PRESETS["Classic Red"], 96, SAMPLES, 0, LIPSTICK)
+    view = around_region(find_lips(astronaut, LIPSTICK), 96)
     whole = tryon_lipstick(astronaut, PRESETS["Classic Red"], samples=SAMPLES)
     assert np.array_equal(shown, view_cut(astronaut, view, 96))
     assert np.abs(worn - view_cut(whole, view, 96)).max() < 1e-6 and np.abs(worn - shown).max() > 0.05

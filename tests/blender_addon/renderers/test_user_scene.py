@@ -11,7 +11,7 @@ pytestmark = pytest.mark.blender
 bpy = pytest.importorskip("bpy")
 
 from blender_addon.compat import EEVEE_ENGINE  # noqa: E402
-from blender_addon.renderers.lipstick import render_lipstick, scene_values, set_lipstick_values  # noqa: E402
+from blender_addon.renderers.product_lipstick import RENDERER as LIPSTICK_SIDE, render_lipstick  # noqa: E402
 from blender_addon.datasets.dataset import DatasetJob  # noqa: E402
 from blender_addon.renderers.cycles import render_user_scene  # noqa: E402
 from blender_addon.renderers.scene_params import user_scene, visible_parameters  # noqa: E402
@@ -102,17 +102,17 @@ def test_the_scenes_own_settings_and_view_transform_are_kept(card):
 
 def test_unmodelled_inputs_keep_the_artists_values(card):
     scene = _open(card)
-    set_lipstick_values(scene, {"red": 10.0}, fill_defaults=False)
-    values = scene_values(scene)
+    LIPSTICK_SIDE.set_values(scene, {"red": 10.0}, fill_defaults=False)
+    values = LIPSTICK_SIDE.scene_values(scene)
     assert values["red"] == 10.0 and values["opacity"] == 1.0 and values["gloss"] == 0.0  # not reset to defaults
 
 
 def test_a_linked_input_is_refused_by_name_and_nothing_changes(tmp_path):
     scene = _open(_make(tmp_path / "linked.blend", "link"))
-    before = scene_values(scene)
+    before = LIPSTICK_SIDE.scene_values(scene)
     with pytest.raises(VtoError, match="'Metallic' of node 'Makeup' in material 'Swatch Card' is driven by a link"):
-        set_lipstick_values(scene, {"red": 12.0, "metallic": 0.9}, fill_defaults=False)
-    assert scene_values(scene) == before
+        LIPSTICK_SIDE.set_values(scene, {"red": 12.0, "metallic": 0.9}, fill_defaults=False)
+    assert LIPSTICK_SIDE.scene_values(scene) == before
     assert "metallic" not in before
 
 
@@ -127,7 +127,7 @@ def test_scene_params_finds_what_the_scene_shows_and_hides(card, capsys):
         # the very same image: every other input stays at the scene's value (none is left moved by its measurement)
         assert rows[name]["ratio"] == pytest.approx(1.0, abs=1e-6)
     assert lines[-1]["params"].split(",") == lines[-1]["visible"]
-    assert scene_values(user_scene())["red"] == pytest.approx(170.0)  # the scene's values are put back
+    assert LIPSTICK_SIDE.scene_values(user_scene())["red"] == pytest.approx(170.0)  # the scene's values are put back
 
 
 def test_scene_params_uses_the_open_file_and_checks_the_material(card, capsys):

@@ -504,16 +504,17 @@ def test_a_portrait_is_matched_at_its_lips_and_better_leaves_nothing_behind(mate
     framed = read_reference("lipstick", {"image_path": portrait})
     assert run_match(material=material, image_path=portrait, find_lips=True) == ({"FINISHED"}, None)
     fast = inputs_of(material)
-    expected = fast_estimate(framed.whole, framed.lips.mask, framed.box)
+    expected = fast_estimate(framed.whole, framed.found.mask, framed.box)
     assert {n: fast[n] for n in SPEC.modelled} == pytest.approx(expected, abs=1e-4)
     assert framed.light.read_from == "skin" and not np.allclose(framed.light.gains, 1.0, atol=0.01)
     assert expected != pytest.approx(expected_estimate(framed.whole[framed.box[1]:framed.box[1] + framed.box[3],
                                                                     framed.box[0]:framed.box[0] + framed.box[2]]),
                                      abs=0.5)  # her light, taken out, moved the estimate
     reference = read_reference("lipstick", {"image_path": portrait})
-    canvas = thumbnail.compose(reference.whole, None, None, reference.lips)  # what the panel's thumbnail shows
+    # what the panel's thumbnail shows
+    canvas = thumbnail.compose(reference.whole, None, None, reference.found, product=LIPSTICK_PRODUCT)
     rows, cols = np.nonzero(np.all(np.isclose(canvas[..., :3], thumbnail.LIPS_COLOUR), axis=-1))
-    x, y, w, h = (v * thumbnail.SIZE / 512 for v in reference.lips.box)
+    x, y, w, h = (v * thumbnail.SIZE / 512 for v in reference.found.box)
     assert len(rows) > 20 and x - 2 <= cols.mean() - w / 2 <= x + 2 and y - 3 <= rows.mean() - h / 2 <= y + 3
     before = {kind: set(getattr(bpy.data, kind).keys()) for kind in ("scenes", "objects", "images", "node_groups")}
     assert run_match(material=material, image_path=portrait, find_lips=True, quality="BETTER") == ({"FINISHED"},
@@ -550,7 +551,7 @@ def test_the_thumbnail_outlines_the_lips_found():
 
     picture = np.full((64, 64, 3), 0.5, np.float32)
     lips = close_up((64, 64), (0.78, 0.4, 0.5, 0.5), 1.0, "")
-    canvas = compose(picture, None, None, lips)
+    canvas = compose(picture, None, None, lips, product=LIPSTICK_PRODUCT)
     cyan = np.all(np.isclose(canvas[..., :3], LIPS_COLOUR), axis=-1)
     rows, cols = np.nonzero(cyan)
     assert cyan.sum() > 100 and abs(cols.mean() - 64) < 6 and abs(rows.mean() - 64) < 6  # the lens, centred
@@ -566,9 +567,9 @@ def test_the_thumbnail_draws_a_tilted_faces_frame_turned_on_the_photo_as_shown(p
     photo = read_image(portrait)[0]
     tilted = turned(photo, 30)
     reference = photo_reader().region_reference(LIPSTICK_PRODUCT, tilted)
-    canvas = compose(tilted, None, None, reference.lips)
+    canvas = compose(tilted, None, None, reference.found, product=LIPSTICK_PRODUCT)
     frame = np.all(np.isclose(canvas[..., :3], CROP_COLOUR), axis=-1)
-    centre, side = turned_square(reference.lips.outer, reference.turn, LIPS.frame_share)
+    centre, side = turned_square(reference.found.outer, reference.turn, LIPS.frame_share)
     across = np.array([np.cos(reference.turn), np.sin(reference.turn)])
     down = np.array([-across[1], across[0]])
     scale = SIZE / max(tilted.shape[:2])
@@ -783,9 +784,10 @@ def test_invoke_in_background_is_execute_and_refinement_reports_progress(materia
     mask[4:] = 1.0
     write_image(tmp_path / "mask.png", mask)
     seen = []
-    result = apply.match_into_hair(scene, {"image_path": str(tmp_path / "photo.png"), "quality": "BETTER",
+    result = apply.match_into_stage(scene, {"image_path": str(tmp_path / "photo.png"), "quality": "BETTER",
                                            "mask_path": str(tmp_path / "mask.png"), "crop": None,
-                                           "model_path": tiny_encoder(tmp_path / "hair.onnx", hair)}, seen.append)
+                                           "model_path": tiny_encoder(tmp_path / "hair.onnx", hair)}, HAIR_PRODUCT,
+                                   seen.append)
     assert seen == list(range(2, 101, 2))  # an update per step of Better's fit: 2 default regions, 100 renders
     assert hair.check_values(result["values"]) == pytest.approx(hair.full_values(result["values"]))
 

@@ -60,7 +60,7 @@ def test_a_lips_mask_frames_the_reference_and_is_its_region_and_whole_image_take
     whole = np.random.default_rng(1).random((100, 100, 3)).astype(np.float32)
     mask = mask_with_box(100, 100, slice(40, 50), slice(30, 70))
     framed = lips_reference(whole, mask=mask)
-    assert framed.box == (24, 19, 52, 52) and framed.lips is None and framed.notes == [framed.light.describe()]
+    assert framed.box == (24, 19, 52, 52) and framed.found is None and framed.notes == [framed.light.describe()]
     assert np.array_equal(framed.region[1], mask[19:71, 24:76])
     as_it_is = lips_reference(whole, mask=mask, neutral_light=False)
     assert as_it_is.light is None and as_it_is.notes == [] and np.array_equal(as_it_is.image, whole[19:71, 24:76])
@@ -275,7 +275,7 @@ def test_any_face_mesh_region_is_found_and_framed_by_its_loops():
     mouth = FaceRegion("mouth", LIPS.loops, LIPS.frame_share)
     lips, found = READER.locate_lips(photo), READER.locate_region(mouth, photo)
     assert found.how == "face" and np.array_equal(found.mask, lips.mask) and found.box == lips.box
-    product = dataclasses.replace(LIPSTICK, name="mouth paint", face_region=mouth)
+    product = dataclasses.replace(LIPSTICK, name="mouth paint", face_regions=(mouth,))
     read, as_lips = READER.face_region_reference(product, photo), lips_reference(photo)
     assert read.box == as_lips.box and np.array_equal(read.image, as_lips.image)
     wide = FaceRegion("wide", LIPS.loops, LIPS.frame_share / 2)  # framed with twice the room around it
