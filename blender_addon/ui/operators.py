@@ -100,7 +100,8 @@ class VTO_OT_add_hair_compositor(bpy.types.Operator):
         return context.scene is not None
 
     def execute(self, context):
-        nodes = blender_side("hair").add_group(context.scene)
+        nodes = [node for product in apply.compositor_products()
+                 for node in blender_side(product).add_group(context.scene)]
         self.report({"INFO"}, f"added {' and '.join(n.name for n in nodes)} to the compositor of "
                               f"'{context.scene.name}'")
         return {"FINISHED"}
