@@ -9,7 +9,7 @@ import sys
 import warnings
 
 from .errors import VtoError
-from .products import PRODUCTS, get_product, product_list
+from .products import PRODUCTS, product_list
 
 
 def either(words) -> str:
@@ -40,8 +40,8 @@ COMMANDS = {
     "train": ("training.cli", "cmd_train", "train the imitator or the encoder (needs torch)"),
     "export": ("training.cli", "cmd_export", "export an encoder run to ONNX"),
     "scene-params": ("blender_addon.renderers.scene_params", "cmd_scene_params",
-                     f"list which {get_product('lipstick').group_text} inputs visibly change a user's scene "
-                     "(needs bpy)"),
+                     f"list which inputs of a product's group ({products_that('user_scenes')}) visibly change a "
+                     "user's scene (needs bpy)"),
     "tryon": ("blender_addon.renderers.commands", "cmd_tryon",
               f"draw a product ({products_that('tryon')}) onto a portrait (needs bpy)"),
     "match": ("pipeline.match", "cmd_match", "estimate a renderer's parameters from a reference image"),

@@ -182,7 +182,8 @@ class DatasetJob:
                                            scene.render.resolution_y * scene.render.resolution_percentage // 100]
             settings["samples"] = self.samples or (getattr(*samples_at) if samples_at else None)
             side = blender_side(self.product)
-            settings["fixed_values"] = {k: v for k, v in side.scene_values(scene).items() if k not in self.spec.modelled}
+            settings["fixed_values"] = {k: v for k, v in side.scene_values(scene).items()
+                                        if k not in self.spec.modelled}
             settings["linked_inputs"] = side.linked_inputs(scene)
             view = scene.view_settings
             images = (f"16-bit PNG, display {scene.display_settings.display_device} through the scene's view transform "

@@ -54,10 +54,11 @@ class VTO_PG_match_settings(bpy.types.PropertyGroup):
     mask_path: StringProperty(name="Mask", subtype="FILE_PATH",
                               description="Optional mask image: white = the product's region ("
                                           f"{either(p.region for p in PRODUCTS.values())})"
-                                          + (f". {either(p.label for p in _FRAMED)}: the reference is framed around it as the "
-                                             "training renders frame it (instead of finding it)" if _FRAMED else "")
-                                          + (f". {either(p.label for p in _UNFRAMED)}: the encoder reads its largest square, "
-                                             "Better and Best all of it" if _UNFRAMED else ""))
+                                          + (f". {either(p.label for p in _FRAMED)}: the reference is framed around "
+                                             "it as the training renders frame it (instead of finding it)"
+                                             if _FRAMED else "")
+                                          + (f". {either(p.label for p in _UNFRAMED)}: the encoder reads its largest "
+                                             "square, Better and Best all of it" if _UNFRAMED else ""))
     model_path: StringProperty(name="Model", subtype="FILE_PATH",
                                description="An encoder (.onnx) for this material only; empty: the add-on "
                                            "preferences' model, else the shipped one")
