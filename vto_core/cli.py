@@ -12,12 +12,6 @@ from .errors import VtoError
 from .products import PRODUCTS, product_list
 
 
-def either(words) -> str:
-    """Words as a help text lists the alternatives: "lips, hair or eyelids" ("" for none)."""
-    words = list(dict.fromkeys(words))
-    return ", ".join(words[:-1]) + " or " + words[-1] if len(words) > 1 else "".join(words)
-
-
 def products_that(ability: str, can: bool = True) -> str:
     """The declared products whose kind can (or, with can=False, cannot) `ability` (a Kind field: "tryon",
     "lightings", ...), as a help text lists them: "lipstick or eyeshadow"; "no product" where none."""

@@ -316,10 +316,16 @@ def layered_over_bare_skin(product: Product) -> list[str]:
             and any(region.bare_skin.overlaps(worn) for worn in other.face_regions)]
 
 
+def either(words) -> str:
+    """Words as a help text lists the alternatives, each once: "lips, hair or eyelids" ("" for none)."""
+    words = list(dict.fromkeys(words))
+    return ", ".join(words[:-1]) + " or " + words[-1] if len(words) > 1 else "".join(words)
+
+
 def product_list(products=None) -> str:
-    """The declared products' names as a help text or an error lists them: "lipstick, hair or eyeshadow"."""
-    names = [p.name for p in (PRODUCTS.values() if products is None else products)]
-    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} or {names[-1]}"
+    """The declared products' names (or those of `products`) as a help text or an error lists them: "lipstick, hair
+    or eyeshadow"."""
+    return either(p.name for p in (PRODUCTS.values() if products is None else products))
 
 
 def product_of_target(target: str) -> Product:

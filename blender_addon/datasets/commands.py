@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 
-from vto_core.cli import ArgumentParser, either, products_that
+from vto_core.cli import ArgumentParser, products_that
 from vto_core.dataset import DEFAULT_RES, DEFAULT_SAMPLES
 from vto_core.errors import VtoError
-from vto_core.products import PRODUCTS, get_product, product_names
+from vto_core.products import PRODUCTS, either, get_product, product_names
 
 
 def _launcher() -> list[str]:

@@ -11,12 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
-from vto_core.cli import ArgumentParser, either, products_that
+from vto_core.cli import ArgumentParser, products_that
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.imageio import write_image
 from vto_core.photo.photo_reader import load_reference
-from vto_core.products import PRODUCTS, get_product, product_list
+from vto_core.products import PRODUCTS, either, get_product, product_list
 
 from ..renderers.products import blender_side
 from .match import match

@@ -6,12 +6,12 @@ from __future__ import annotations
 import json
 import os
 
-from vto_core.cli import ArgumentParser, either, products_that
+from vto_core.cli import ArgumentParser, products_that
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.imageio import write_image
 from vto_core.params_io import parse_params
-from vto_core.products import PRODUCTS, get_spec, product_names
+from vto_core.products import PRODUCTS, either, get_spec, product_names
 
 from .products import render
 

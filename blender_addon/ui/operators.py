@@ -8,10 +8,8 @@ import time
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, StringProperty
 
-from vto_core.cli import either
 from vto_core.errors import VtoError, failure_line
-
-from vto_core.products import LIPSTICK, PRODUCTS, get_product, product_of_target
+from vto_core.products import LIPSTICK, PRODUCTS, either, get_product, product_of_target
 
 from ..matching import apply
 from ..renderers.products import blender_side

@@ -8,8 +8,7 @@ import json
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, PointerProperty, StringProperty
 
-from vto_core.cli import either
-from vto_core.products import PRODUCTS
+from vto_core.products import PRODUCTS, either
 
 
 def _fast_fit(product) -> str:
