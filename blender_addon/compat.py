@@ -20,7 +20,7 @@ HAS_MEDIA_TYPE = "media_type" in bpy.types.ImageFormatSettings.bl_rna.properties
 IMAGE_FORMAT_FIELDS = ("media_type", "file_format") if HAS_MEDIA_TYPE else ("file_format",)
 
 # Render pass names that 5.0 spelt out, to the names the add-on reads.
-_PASS_NAMES = {"Object Index": "IndexOB"}
+_PASS_NAMES = {"Object Index": "IndexOB", "Material Index": "IndexMA"}
 
 # Compositor node kinds (Builder's short names) that 5.0 replaced with the shader node of another kind.
 _COMPOSITOR_RENAMED = {"Math": "ShaderNodeMath", "MixRGB": "ShaderNodeMix", "Gamma": "ShaderNodeGamma"} \
@@ -30,6 +30,23 @@ _COMPOSITOR_RENAMED = {"Math": "ShaderNodeMath", "MixRGB": "ShaderNodeMix", "Gam
 def canonical_pass_name(name: str) -> str:
     """A render pass's name as Blender 4.x writes it into an EXR ("IndexOB" for 5.0's "Object Index")."""
     return _PASS_NAMES.get(name, name)
+
+
+def render_layer_output(node, pass_name: str):
+    """The Render Layers node's output of pass `pass_name` as 4.x names it ("IndexOB"), in this Blender."""
+    spelt = {canonical: full for full, canonical in _PASS_NAMES.items()}.get(pass_name, pass_name)
+    name = spelt if BLENDER_5 else pass_name
+    # by name, not by key: a pass turned on just now is not yet available to the key lookup
+    return next(output for output in node.outputs if output.name == name)
+
+
+def set_id_mask(node, index: int, antialias: bool = True) -> None:
+    """Set an ID Mask node's index and anti-aliasing (node properties before 5.0, input sockets since)."""
+    if "Index" in node.inputs:
+        node.inputs["Index"].default_value = index
+        node.inputs["Anti-Alias"].default_value = antialias
+    if hasattr(node, "index"):
+        node.index, node.use_antialiasing = index, antialias
 
 
 def compositor_idname(kind: str) -> str:

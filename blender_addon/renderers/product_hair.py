@@ -36,6 +36,75 @@ def hair_region(source: int, res: int, samples: int):
     return render_hair_source(source, res, samples, 0)
 
 
+HAIR_TYPES = ("MESH", "CURVES", "CURVE")  # objects that can be hair: meshes (cards, a sculpted cap), curves, emitters
+HAIR_ID_MASK = "VTO Hair ID Mask"
+
+
+def hair_ids(objects) -> tuple[list, list]:
+    """Of `objects` (the selection: cameras, lights and the like are left out), (the objects that are hair whole:
+    curves and meshes, the materials of the hair particles the others emit); VtoError (one line) for particle hair
+    without a material."""
+    whole, materials = [], []
+    for obj in (obj for obj in objects if obj.type in HAIR_TYPES):
+        strands = [system.settings for system in getattr(obj, "particle_systems", ())
+                   if system.settings.type == "HAIR"]
+        if not strands:
+            whole.append(obj)
+        for settings in strands:  # the emitter's own surface is not hair: its strands are told by their material
+            slot = settings.material - 1
+            material = obj.material_slots[slot].material if 0 <= slot < len(obj.material_slots) else None
+            if material is None:
+                raise VtoError(f"the particle hair of '{obj.name}' has no material: give it one, so that the hair's "
+                               "pixels can be told from the emitter's")
+            materials.append(material)
+    return whole, materials
+
+
+def free_pass_index(chosen, others) -> int:
+    """A pass index for the ids `chosen`: theirs where they share one that no other id uses, else one above all."""
+    kept = {item.pass_index for item in chosen}
+    used = {item.pass_index for item in others if item not in chosen}
+    if len(kept) == 1 and 0 not in kept and not kept & used:
+        return kept.pop()
+    return max(used | kept | {0}) + 1
+
+
+def wire_hair_mask(scene, tree, render, color, hair_objects) -> None:
+    """The hair mask of `scene`'s own render from its passes: the hair objects get a pass index (the object-index
+    pass; particle hair, its material's in the material-index pass), an ID Mask node reads each, and the mask (their
+    maximum) goes into `color`'s Mask input. It follows the animation and any camera."""
+    import bpy
+
+    from ..compat import compositor_idname, render_layer_output, set_id_mask
+
+    whole, materials = hair_ids(hair_objects)
+    shown = render.scene or scene
+    layer = shown.view_layers.get(render.layer) or shown.view_layers[0]
+    masks = []
+    for ids, others, pass_name, use in ((whole, scene.objects, "IndexOB", "use_pass_object_index"),
+                                        (materials, bpy.data.materials, "IndexMA", "use_pass_material_index")):
+        if not ids:
+            continue
+        index = free_pass_index(ids, others)
+        for item in ids:
+            item.pass_index = index
+        setattr(layer, use, True)
+        id_mask = tree.nodes.new("CompositorNodeIDMask")
+        id_mask.name = id_mask.label = f"{HAIR_ID_MASK} {pass_name}"
+        set_id_mask(id_mask, index)
+        tree.links.new(render_layer_output(render, pass_name), id_mask.inputs["ID value"])
+        id_mask.location = (-400, -300 - 150 * len(masks))
+        masks.append(id_mask.outputs["Alpha"])
+    if len(masks) == 2:
+        both = tree.nodes.new(compositor_idname("Math"))
+        both.operation = "MAXIMUM"
+        tree.links.new(masks[0], both.inputs[0])
+        tree.links.new(masks[1], both.inputs[1])
+        masks = [both.outputs[0]]
+    if masks:
+        tree.links.new(masks[0], color.inputs["Mask"])
+
+
 class HairRenderer(ProductRenderer):
     """VTO Hair Color: a two-pass compositor stage that matches the hair's histogram to a recoloured swatch."""
 
@@ -90,22 +159,31 @@ class HairRenderer(ProductRenderer):
         return [n for n in tree.nodes if n.bl_idname == "CompositorNodeGroup" and n.node_tree is not None
                 and n.node_tree.name.startswith((SWATCH_GROUP, COLOR_GROUP))]
 
-    def add_group(self, scene) -> list:
+    def add_group(self, scene, hair_objects=()) -> list:
         """The two hair groups in `scene`'s compositor, wired: the hair swatch image -> "VTO Hair Swatch" -> Viewer (the
-        recoloured swatch), the render -> "VTO Hair Color" -> Composite (a hair mask goes into its Mask input; Gradient
-        stays 1, the whole hair). Returns the two group nodes."""
+        recoloured swatch), the render -> "VTO Hair Color" -> Composite. Where `hair_objects` (the selection) hold hair,
+        the render's own passes make its hair mask (wire_hair_mask); else a mask image node waits to be chosen
+        (Gradient stays 1, the whole hair). Returns the two group nodes; VtoError (nothing changed) for particle hair
+        without a material."""
         import bpy
 
         from ..compat import composite_output, compositor_tree
         from .hair import SWATCH_PATH
         from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, swatch_group
 
+        hair_ids(hair_objects)  # refused before anything changes
+        before = compositor_tree(scene)
+        fresh = before is None or not before.nodes or (hasattr(scene, "use_nodes") and not scene.use_nodes)
         tree = compositor_tree(scene, create=True)
         nodes, links = tree.nodes, tree.links
         def existing(idname: str):
             return next((n for n in nodes if n.bl_idname == idname), None) or nodes.new(idname)
 
-        render, output = existing("CompositorNodeRLayers"), composite_output(tree)
+        render = next((n for n in nodes if n.bl_idname == "CompositorNodeRLayers"), None) \
+            or nodes.new("CompositorNodeRLayers")
+        if fresh:  # a new node reads the context's scene; this scene's render is the one recoloured
+            render.scene = scene
+        output = composite_output(tree)
         swatch_image = nodes.new("CompositorNodeImage")
         swatch_image.name = swatch_image.label = "VTO Hair Swatch Image"
         swatch_image.image = bpy.data.images.load(str(SWATCH_PATH), check_existing=True)
@@ -125,6 +203,9 @@ class HairRenderer(ProductRenderer):
         links.new(render.outputs["Image"], color.inputs["Image"])
         links.new(color.outputs[0], output)
         mask_image.location, color.location, output.node.location = (-400, -300), (0, 0), (300, 0)
+        if any(hair_ids(hair_objects)):
+            mask_image.location = (-700, -300)  # the image stays a choice; the passes give the mask
+            wire_hair_mask(scene, tree, render, color, hair_objects)
         swatch_image.location, swatch.location, viewer.location = (-400, 300), (0, 300), (300, 300)
         return [swatch, color]
 

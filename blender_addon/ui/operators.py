@@ -87,7 +87,8 @@ class VTO_OT_add_lipstick_material(bpy.types.Operator):
 
 
 class VTO_OT_add_hair_compositor(bpy.types.Operator):
-    """Add the two VTO hair compositor groups to this scene's compositor, wired to the render and the output"""
+    """Add the two VTO hair compositor groups to this scene's compositor, wired to the render and the output; the
+    selected hair objects (curves, meshes, particle hair's emitter) give the hair mask from the render's own passes"""
 
     bl_idname = "vto.add_hair_compositor"
     bl_label = "Add VTO Hair Compositor"
@@ -98,8 +99,13 @@ class VTO_OT_add_hair_compositor(bpy.types.Operator):
         return context.scene is not None
 
     def execute(self, context):
-        nodes = [node for product in apply.compositor_products()
-                 for node in blender_side(product).add_group(context.scene)]
+        selected = list(getattr(context, "selected_objects", None) or ())
+        try:
+            nodes = [node for product in apply.compositor_products()
+                     for node in blender_side(product).add_group(context.scene, selected)]
+        except VtoError as exc:
+            self.report({"ERROR"}, failure_line(exc))
+            return {"CANCELLED"}
         self.report({"INFO"}, f"added {' and '.join(n.name for n in nodes)} to the compositor of "
                               f"'{context.scene.name}'")
         return {"FINISHED"}
