@@ -43,6 +43,12 @@ class FaceRegion:
     mirrored: bool = False  # read flipped left to right: the default scene shows its mirror image (the other eye)
     hole_opens: bool = False  # its hole opens (the mouth): an encoder may train on open views, teeth painted over it
 
+    @property
+    def attribute(self) -> str:
+        """The mesh attribute that weighs where a character's skin is this region, 0 to 1 (Find Face on Mesh writes
+        it; a makeup layer reads it): "vto_lips", "vto_eyelids"."""
+        return "vto_" + self.name.replace(" ", "_")
+
     def overlaps(self, other: "FaceRegion") -> bool:
         """Whether the two regions' outer loops share a landmark (a layer on one lies on the other's edge or more)."""
         return bool(set(self.loops[0]) & set(other.loops[0]))
@@ -309,11 +315,15 @@ def product_of_region(region: FaceRegion) -> Product:
 def layered_over_bare_skin(product: Product) -> list[str]:
     """One line for each other declared product worn where `product` reads bare skin (FaceRegion.bare_skin): a layer
     there moves what its fit takes for the bare skin."""
-    return [f"{product.label}'s {region.name} are guessed from the bare {region.bare_skin.name}, where {other.label} "
-            f"is worn: {other.label} there moves the guess"
-            for other in PRODUCTS.values() if other is not product
-            for region in product.face_regions[:1] if region.bare_skin is not None
-            and any(region.bare_skin.overlaps(worn) for worn in other.face_regions)]
+    lines = []
+    for other in (other for other in PRODUCTS.values() if other is not product):
+        read = [region for region in product.face_regions if region.bare_skin is not None
+                and any(region.bare_skin.overlaps(worn) for worn in other.face_regions)]
+        if read:
+            lines.append(f"{product.label}'s {product.face_region.name} are guessed from the bare "
+                         f"{' and '.join(dict.fromkeys(region.bare_skin.name for region in read))}, where "
+                         f"{other.label} is worn: {other.label} there moves the guess")
+    return lines
 
 
 def either(words) -> str:

@@ -15,6 +15,7 @@ from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.specs import RendererSpec
 
+from . import scene_build
 from .node_utils import (SHADER_TREE, Builder, add_spec_inputs, get_or_create_group, layer_material,
                          material_group_nodes, scene_group_nodes, scene_group_values, set_group_values, srgb_colour)
 from .products import BoundSource, ProductRenderer
@@ -112,8 +113,10 @@ class DefaultScene:
 
     build: Callable[[], bpy.types.Scene]  # get or create it (at source 0)
     apply_source: Callable  # (scene, seed, tones=None, light_seed=None): show that source, in place
-    mask: Callable  # (seed, res, lighting=None) -> (res, res) bool: the region in its render
-    applied: Callable  # (scene, seed, tones=None, light_seed=None) -> whether it shows that already
+
+    def mask(self, source_seed: int, res: int, lighting: str | None = None) -> np.ndarray:
+        """The region in a res x res render of the scene at `source_seed`, lit the `lighting` way: (res, res) bool."""
+        return scene_build.region_mask(self.build, self.apply_source, source_seed, res, lighting)
 
 
 class FaceLayerRenderer(ProductRenderer):
@@ -191,7 +194,7 @@ class FaceLayerRenderer(ProductRenderer):
             return render_user_scene(scene, res, samples, seed)
         scene = self.scene.build()
         use_lighting(scene, lighting)
-        if not self.scene.applied(scene, source, tones, light_seed):
+        if not scene_build.applied(scene, source, tones, light_seed):
             self.scene.apply_source(scene, int(source), tones, light_seed)
         self.set_values(scene, values)
         configure_cycles(scene, res, samples, seed)

@@ -12,8 +12,7 @@ from vto_core.products import EYESHADOW
 from .face_layer import DefaultScene, FaceLayerRenderer
 from .nodes_eyeshadow import EYESHADOW_GROUP
 from .products import shifted_colour
-from .scene_build import applied
-from .scene_eyes import apply_source, build_eye_scene, eyelid_mask
+from .scene_eyes import apply_source, build_eye_scene
 
 # Default-scene seeds the photo fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up.
 EYE_POOL = tuple(range(900001, 900025))
@@ -41,7 +40,7 @@ class EyeShadowRenderer(FaceLayerRenderer):
     product = EYESHADOW
     fit_sources = EYE_POOL
     layer_group = EYESHADOW_GROUP
-    scene = DefaultScene(build_eye_scene, apply_source, eyelid_mask, applied)
+    scene = DefaultScene(build_eye_scene, apply_source)
     add_hint = ", or put one between the lid's shader and the Material Output"
 
     def iter_fit_sources(self, region, count, res, samples):

@@ -69,15 +69,15 @@ def free_pass_index(chosen, others) -> int:
     return max(used | kept | {0}) + 1
 
 
-def wire_hair_mask(scene, tree, render, color, hair_objects) -> None:
+def wire_hair_mask(scene, tree, render, color, whole: list, materials: list) -> None:
     """The hair mask of `scene`'s own render from its passes: the hair objects get a pass index (the object-index
     pass; particle hair, its material's in the material-index pass), an ID Mask node reads each, and the mask (their
-    maximum) goes into `color`'s Mask input. It follows the animation and any camera."""
+    maximum) goes into `color`'s Mask input. It follows the animation and any camera. `whole` and `materials` are
+    hair_ids' two lists."""
     import bpy
 
     from ..compat import compositor_idname, render_layer_output, set_id_mask
 
-    whole, materials = hair_ids(hair_objects)
     shown = render.scene or scene
     layer = shown.view_layers.get(render.layer) or shown.view_layers[0]
     masks = []
@@ -171,7 +171,7 @@ class HairRenderer(ProductRenderer):
         from .hair import SWATCH_PATH
         from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, swatch_group
 
-        hair_ids(hair_objects)  # refused before anything changes
+        whole, materials = hair_ids(hair_objects)  # refused before anything changes
         before = compositor_tree(scene)
         fresh = before is None or not before.nodes or (hasattr(scene, "use_nodes") and not scene.use_nodes)
         tree = compositor_tree(scene, create=True)
@@ -203,9 +203,9 @@ class HairRenderer(ProductRenderer):
         links.new(render.outputs["Image"], color.inputs["Image"])
         links.new(color.outputs[0], output)
         mask_image.location, color.location, output.node.location = (-400, -300), (0, 0), (300, 0)
-        if any(hair_ids(hair_objects)):
+        if whole or materials:
             mask_image.location = (-700, -300)  # the image stays a choice; the passes give the mask
-            wire_hair_mask(scene, tree, render, color, hair_objects)
+            wire_hair_mask(scene, tree, render, color, whole, materials)
         swatch_image.location, swatch.location, viewer.location = (-400, 300), (0, 300), (300, 300)
         return [swatch, color]
 

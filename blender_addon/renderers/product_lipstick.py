@@ -11,7 +11,6 @@ from vto_core.products import LIPSTICK
 from .face_layer import DefaultScene, FaceLayerRenderer
 from .nodes_lipstick import LIPSTICK_GROUP
 from .products import shifted_colour
-from .scene_build import applied
 from .scene_lips import apply_source, build_lips_scene, lips_mask
 
 # Default-scene seeds the photo fits render on: apart from the benchmarks' sources 0-7 and eval's 5000 and up; the fit
@@ -67,7 +66,7 @@ class LipstickRenderer(FaceLayerRenderer):
     product = LIPSTICK
     fit_sources = LIPS_POOL
     layer_group = LIPSTICK_GROUP
-    scene = DefaultScene(build_lips_scene, apply_source, lips_mask, applied)
+    scene = DefaultScene(build_lips_scene, apply_source)
 
     def iter_fit_sources(self, region, count, res, samples):
         """The `count` default lips sources whose skin looks most like the photo's (CIEDE2000 of the skin around the

@@ -94,9 +94,7 @@ class ToyRenderer(FaceLayerRenderer):
 
     product = TOY
     layer_group = TOY_GROUP
-    scene = DefaultScene(build_cheek_scene, apply_source,
-                         lambda seed, res, lighting=None: region_mask(build_cheek_scene, apply_source, seed, res,
-                                                                      lighting), applied)
+    scene = DefaultScene(build_cheek_scene, apply_source)
 
 
 RENDERER = ToyRenderer()

@@ -84,6 +84,14 @@ def test_a_product_worn_where_another_reads_bare_skin_is_named():
     finally:
         del PRODUCTS["blush"]
     assert len(lines) == 1 and "Blush" in lines[0] and "cheek under the right eye" in lines[0], lines
+    left = FaceRegion("cheeks", ((346, 347, 330, 266, 425, 411, 352),), 0.8)
+    both = dataclasses.replace(blush, face_regions=blush.face_regions + (left,))
+    PRODUCTS["blush"] = both
+    try:
+        (line,) = layered_over_bare_skin(EYESHADOW)  # one line for the product, naming the bare skin under both eyes
+    finally:
+        del PRODUCTS["blush"]
+    assert "cheek under the right eye and cheek under the left eye" in line, line
     assert EYELIDS.bare_skin.overlaps(blush.face_region) and not EYELIDS.overlaps(LIPSTICK.face_region)
 
 
