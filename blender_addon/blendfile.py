@@ -46,3 +46,37 @@ def save_blend_atomic(path: str) -> str:
         if os.path.exists(temporary):
             os.remove(temporary)
     return path
+
+
+MESH_FORMATS = {".blend": None, ".obj": "wm.obj_import", ".glb": "import_scene.gltf", ".gltf": "import_scene.gltf",
+                ".fbx": "import_scene.fbx"}  # a mesh file's suffix -> the operator that imports it (a .blend opens)
+
+
+def open_mesh_file(path: str) -> None:
+    """Open a .blend, or import an .obj, .glb/.gltf or .fbx into an empty file; VtoError (one line) otherwise."""
+    suffix = os.path.splitext(path)[1].lower()
+    if suffix not in MESH_FORMATS:
+        raise VtoError(f"cannot read {path}: give a {', '.join(MESH_FORMATS)} file")
+    if not os.path.isfile(path):
+        raise VtoError(f"no file at {path}")
+    if MESH_FORMATS[suffix] is None:
+        return open_blend(path)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    group, name = MESH_FORMATS[suffix].split(".")
+    try:
+        getattr(getattr(bpy.ops, group), name)(filepath=os.path.abspath(path))
+    except RuntimeError as exc:
+        raise VtoError(f"cannot import {path}: {str(exc).strip().splitlines()[-1]}") from None
+
+
+def mesh_object(name: str | None) -> bpy.types.Object:
+    """The open file's object `name`, or with no name its largest mesh (the most vertices)."""
+    meshes = [obj for obj in bpy.data.objects if obj.type == "MESH"]
+    if name is not None:
+        obj = bpy.data.objects.get(name)
+        if obj is None:
+            raise VtoError(f"no object '{name}' in the file; its meshes: {', '.join(o.name for o in meshes) or 'none'}")
+        return obj
+    if not meshes:
+        raise VtoError("the file holds no mesh")
+    return max(meshes, key=lambda obj: len(obj.data.vertices))

@@ -49,6 +49,11 @@ def set_id_mask(node, index: int, antialias: bool = True) -> None:
         node.index, node.use_antialiasing = index, antialias
 
 
+def id_mask_index(node) -> int:
+    """An ID Mask node's index (a node property before 5.0, an input socket since)."""
+    return int(node.inputs["Index"].default_value if "Index" in node.inputs else node.index)
+
+
 def compositor_idname(kind: str) -> str:
     """The bl_idname of compositor node kind `kind` ("Math", "Blur", ...) in this Blender."""
     return _COMPOSITOR_RENAMED.get(kind, "CompositorNode" + kind)

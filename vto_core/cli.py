@@ -39,6 +39,8 @@ COMMANDS = {
     "tryon": ("blender_addon.renderers.commands", "cmd_tryon",
               f"draw a product ({products_that('tryon')}) onto a portrait (needs bpy)"),
     "match": ("pipeline.match", "cmd_match", "estimate a renderer's parameters from a reference image"),
+    "find-face": ("blender_addon.matching.commands", "cmd_find_face",
+                  "find the face on a character's head mesh and write its regions for the makeup layers (needs bpy)"),
     "batch": ("blender_addon.matching.batch", "cmd_batch",
               "estimate a folder of product photos: median presets, an asset library, a contact sheet"),
     "eval": ("pipeline.cli", "cmd_eval", "the paper's transfer experiment on an exported encoder (needs bpy)"),

@@ -91,9 +91,25 @@ def group_nodes(product: Product, target) -> list:
     return blender_side(product).nodes(target)
 
 
+def worn_products(material) -> list[Product]:
+    """The material products whose groups `material` uses, in declaration order ([] for none)."""
+    return [p for p in PRODUCTS.values() if p.is_material and group_nodes(p, material)]
+
+
 def material_product(material) -> Product | None:
-    """The first material product whose group `material` uses (None: none does)."""
-    return next((p for p in PRODUCTS.values() if p.is_material and group_nodes(p, material)), None)
+    """The material product that Match fills in `material`: the one whose group is its active node (the layer
+    chosen, where it wears several), else the first it wears (None: it wears none)."""
+    worn = worn_products(material)
+    active = material.node_tree.nodes.active if worn else None
+    return next((p for p in worn if active in group_nodes(p, material)), worn[0] if worn else None)
+
+
+def choose_layer(material, product: Product) -> None:
+    """Make `product`'s group the active node of `material`, so that Match fills it; VtoError where it wears none."""
+    nodes = group_nodes(product, material)
+    if not nodes:
+        raise VtoError(f"material '{material.name}' wears no {product.label}")
+    material.node_tree.nodes.active = nodes[0]
 
 
 def compositor_products() -> list[Product]:
@@ -254,22 +270,28 @@ class MatchJob:
         """Check the targets again, then write: {'values', 'spec', 'model', 'previous', 'seconds'}."""
         targets = self.targets()
         previous = current_values(self.nodes(), self.spec)
+        # what the target needs besides its inputs (the hair stage's curve): computed first, so a refusal writes nothing
+        write_fitted, notes = blender_side(self.product).fitted_target(self.target(), values)
         write(targets, values)
+        write_fitted()
         return {"values": values, "spec": self.spec, "model": self.prepared["model"], "previous": previous,
-                "seconds": time.perf_counter() - self.started, "warnings": self.warnings, "notes": self.notes}
+                "seconds": time.perf_counter() - self.started, "warnings": self.warnings,
+                "notes": self.notes + notes}
 
 
 def match_into_material(material_name: str, settings: dict,
-                        progress: Callable[[int], None] | None = None) -> dict:
+                        progress: Callable[[int], None] | None = None, product: Product | None = None) -> dict:
     """Estimate the look of the reference and write it into the inputs of the group `material_name` uses ("VTO
-    Lipstick", "VTO Eye Shadow").
+    Lipstick", "VTO Eye Shadow"): `product`'s, else its chosen layer's (material_product).
 
     Returns {'values', 'spec', 'model', 'seconds', 'previous'}; raises VtoError (nothing written) on any bad input.
     """
     import bpy
 
-    product = material_product(bpy.data.materials.get(material_name)) or next(p for p in PRODUCTS.values()
-                                                                              if p.is_material)
+    material = bpy.data.materials.get(material_name)
+    if product is not None and material is not None and product not in worn_products(material):
+        raise VtoError(f"material '{material_name}' wears no {product.label}")
+    product = product or material_product(material) or next(p for p in PRODUCTS.values() if p.is_material)
     job = MatchJob(product.name, settings, material_name=material_name)
     return job.finish(drain(job.steps(), progress))
 

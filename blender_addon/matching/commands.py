@@ -26,7 +26,8 @@ from .refine import OBJECTIVES
 def cmd_match(argv: list[str], imitator_refine=None) -> int:
     """vto match --model M --image IMG [--quality fast|better|best] [--crop x,y,w,h] [--mask IMG] [--whole-image]
     [--source S --refine none|imitator:K|render:B|cma:B] [--imitator RUN] --out-params F,
-    or vto match --material NAME --image IMG [--model M] [--quality Q] [--crop] [--mask] [--blend FILE] --save.
+    or vto match --material NAME [--layer PRODUCT] --image IMG [--model M] [--quality Q] [--crop] [--mask]
+    [--blend FILE] --save.
 
     The same function serves `blender -b [FILE] -c vto match`; there imitator:K ends in one line (no torch). The
     console script runs it through pipeline.match, which passes `imitator_refine` (match's).
@@ -62,6 +63,9 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
     parser.add_argument("--material", default=None, help="write the estimate into the inputs of this material's "
                                                          f"group ({either(p.group_text for p in materials)}) (of "
                                                          "--blend FILE, or the open .blend)")
+    parser.add_argument("--layer", default=None, choices=[p.name for p in materials],
+                        help="with --material: the product to fill where the material wears several makeup layers "
+                             "(default: its active node's, else the first)")
     parser.add_argument("--blend", default=None, help="with --material: the .blend to open (default: the open one)")
     parser.add_argument("--save", action="store_true", help="with --material: save the .blend (atomically)")
     parser.add_argument("--quality", default="fast", choices=["fast", "better", "best"],
@@ -83,7 +87,7 @@ def cmd_match(argv: list[str], imitator_refine=None) -> int:
                              "from the face's skin and taken out)")
     args = parser.parse_args(argv)
     if args.material is None:
-        for option in ("blend", "save"):
+        for option in ("blend", "save", "layer"):
             if getattr(args, option):
                 raise VtoError(f"--{option} goes with --material NAME")
         if args.out_params is None or args.model is None:
@@ -161,7 +165,7 @@ def match_material_cli(args, out: Path | None) -> int:
                 else "", "crop": crop, "mask_path": os.path.abspath(args.mask) if args.mask else "",
                 "quality": args.quality.upper(), "find_region": not args.whole_image,
                 "neutral_light": not args.keep_light}
-    result = match_into_material(args.material, settings)
+    result = match_into_material(args.material, settings, product=get_product(args.layer) if args.layer else None)
     for warning in result["warnings"]:
         print(f"vto match: warning: {warning}", file=sys.stderr)
     for note in result["notes"]:
@@ -174,4 +178,52 @@ def match_material_cli(args, out: Path | None) -> int:
         temporary.replace(out)
     print(json.dumps({"blend": blend, "material": args.material, "model": result["model"],
                       "params": result["values"], "seconds": round(result["seconds"], 4)}))
+    return 0
+
+
+def cmd_find_face(argv: list[str]) -> int:
+    """vto find-face --mesh FILE [--object NAME] [--scene-camera] [--group REGION=GROUP ...] [--preview PNG]
+    --out OUT.blend."""
+    parser = ArgumentParser(prog="vto find-face", description="find the face on a head (or body) mesh and write its "
+                            "regions as the attributes the makeup layers read; saves a .blend with the mesh")
+    parser.add_argument("--mesh", required=True, help="a .blend, .obj, .glb/.gltf or .fbx")
+    parser.add_argument("--object", default=None, help="the mesh object (default: the file's largest mesh)")
+    parser.add_argument("--scene-camera", action="store_true", help="see the face from the scene's camera (default: "
+                        "the mesh's own front, back or sides, whichever shows a face)")
+    parser.add_argument("--group", action="append", default=[], metavar="REGION=GROUP",
+                        help="a vertex group that already says where a region is (lips=Lips): its weights are used")
+    parser.add_argument("--preview", default=None, help="PNG: the front render with the landmarks found")
+    parser.add_argument("--out", required=True, help="the .blend to write")
+    args = parser.parse_args(argv)
+    groups = {}
+    for given in args.group:
+        region, _, group = given.partition("=")
+        if not region or not group:
+            raise VtoError(f"--group takes REGION=GROUP, got '{given}'")
+        groups[region] = group
+    if not args.out.endswith(".blend"):
+        raise VtoError(f"--out must be a .blend, got {args.out}")
+    import time
+
+    import bpy
+
+    from ..blendfile import mesh_object, open_mesh_file, save_blend_atomic
+    from .face_on_mesh import drawn_landmarks, face_layers, find_face, place_camera
+
+    open_mesh_file(args.mesh)
+    obj = mesh_object(args.object)
+    camera = bpy.context.scene.camera if args.scene_camera else None
+    if args.scene_camera and camera is None:
+        raise VtoError(f"{args.mesh} has no scene camera")
+    start = time.perf_counter()
+    found = find_face(obj, camera, groups)
+    seconds = time.perf_counter() - start
+    place_camera(bpy.context.scene, obj, found.view)
+    if args.preview:
+        write_image(args.preview, drawn_landmarks(found, face_layers()))
+    for note in found.notes:
+        print(f"vto find-face: {note}", file=sys.stderr)
+    out = save_blend_atomic(args.out)
+    print(json.dumps({"out": out, "object": obj.name, "vertices": len(obj.data.vertices), "regions": found.counts,
+                      "seconds": round(seconds, 3)}))
     return 0

@@ -172,6 +172,29 @@ def _restored(owner, names: tuple[str, ...]):
             setattr(owner, name, value)
 
 
+def render_user_passes(scene: bpy.types.Scene, side: int, samples: int) -> dict[str, np.ndarray]:
+    """A user's scene through its own camera, its compositor off, at most `side` px on its long side and `samples`
+    samples (never more than its own), not denoised (a Blender built without OpenImageDenoise refuses it): its passes
+    as linear float32 arrays. Everything is as it was afterwards."""
+    render, settings = scene.render, scene.render.image_settings
+    samples_at = sample_setting(scene)
+    with _restored(render, ("filepath", "use_file_extension", "resolution_percentage", "use_compositing",
+                            "use_sequencer")), \
+            _restored(settings, (*IMAGE_FORMAT_FIELDS, "color_depth", "exr_codec")), \
+            _restored(scene.cycles, ("use_denoising",)), \
+            (_restored(samples_at[0], samples_at[1:]) if samples_at else contextlib.nullcontext()):
+        scene.cycles.use_denoising = False
+        long_side = max(render.resolution_x, render.resolution_y) * render.resolution_percentage / 100
+        render.resolution_percentage = max(1, min(render.resolution_percentage,
+                                                  int(render.resolution_percentage * side / max(long_side, 1))))
+        render.use_compositing = render.use_sequencer = False
+        if samples_at:
+            setattr(*samples_at, min(samples, getattr(*samples_at)))
+        set_exr_output(settings, multilayer=True)
+        settings.color_depth, settings.exr_codec = "32", "NONE"
+        return render_passes(scene)
+
+
 def sample_setting(scene: bpy.types.Scene) -> tuple[object, str] | None:
     """Where `scene`'s render engine keeps its render sample count, (owner, attribute); None for an engine without."""
     engine = scene.render.engine

@@ -11,6 +11,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from vto_core.colour import srgb_to_linear
 from vto_core.dataset import DEFAULT_SAMPLES
 from vto_core.errors import VtoError
 from vto_core.hair import PHOTO_HAIR, blur_radius, fit_hair_match, hair_gradient, hair_square
@@ -20,7 +21,8 @@ from vto_core.products import get_spec
 
 from ..compat import composite_output, compositor_tree, set_exr_output
 from ..shipped import DATA
-from .nodes_hair import COLOR_GROUP, SWATCH_GROUP, color_group, set_blur_radius, set_lut, swatch_group
+from .nodes_hair import (COLOR_GROUP, FIT_COLOR_GROUP, SWATCH_GROUP, color_group, set_blur_radius, set_lut,
+                         swatch_group)
 from .cycles import configure_cycles, render_passes, to_display
 from .scene_hair import HAIR_PASS_INDEX, apply_source, build_hair_scene
 
@@ -142,7 +144,7 @@ def _pass_scene(group_name: str) -> bpy.types.Scene:
     scene.camera = camera  # a compositor-only render still needs one
     tree = compositor_tree(scene, create=True)
     tree.nodes.clear()
-    group = swatch_group() if group_name == SWATCH_GROUP else color_group()
+    group = swatch_group() if group_name == SWATCH_GROUP else color_group(FIT_COLOR_GROUP)
     node = tree.nodes.new("CompositorNodeGroup")
     node.name = group_name
     node.node_tree = group
@@ -179,14 +181,26 @@ def _run_pass(group_name: str, images: dict[str, np.ndarray], values: dict[str, 
     return render_passes(scene)["Combined"][..., :3]
 
 
+def stage_match(source: HairSource, values: dict[str, float], swatch: np.ndarray | None = None,
+                scene_linear: bool = False):
+    """The curves (HistogramMatch) that move `source`'s hair onto the swatch recoloured by pass 1 with hair `values`
+    (full). scene_linear: `source` holds a render's scene-linear values (an artist's compositor), so the recoloured
+    swatch's display values are taken to scene-linear as well; else both are display values (a photo, the passes)."""
+    swatch = load_swatch() if swatch is None else swatch
+    recoloured = np.clip(_run_pass(SWATCH_GROUP, {"VTO Hair Swatch Image": swatch}, values), 0, 1)
+    return fit_hair_match(source.rgb, source.mask, srgb_to_linear(recoloured) if scene_linear else recoloured)
+
+
+def set_stage(group: bpy.types.NodeTree, match, width: int) -> None:
+    """Put `match`'s curves, and the local-contrast blur of an image `width` px wide, into colour group `group`."""
+    set_lut(group, match.gray_lut, match.channel_luts)
+    set_blur_radius(group, blur_radius(width))
+
+
 def run_hair_stage(source: HairSource, values: dict[str, float], swatch: np.ndarray | None = None) -> np.ndarray:
     """Both compositor passes on `source` with hair `values`: (H, W, 3) display values."""
     values = get_spec("hair").full_values(values)
-    swatch = load_swatch() if swatch is None else swatch
-    recoloured = _run_pass(SWATCH_GROUP, {"VTO Hair Swatch Image": swatch}, values)
-    match = fit_hair_match(source.rgb, source.mask, np.clip(recoloured, 0, 1))
-    set_lut(color_group(), match.gray_lut, match.channel_luts)
-    set_blur_radius(color_group(), blur_radius(source.rgb.shape[1]))
+    set_stage(color_group(FIT_COLOR_GROUP), stage_match(source, values, swatch), source.rgb.shape[1])
     display = np.clip(source.rgb, 0, 1)  # a display-referred stage: HDR sources are clipped, as in the reference
     stage_inputs = dict(zip(STAGE_IMAGES[:3], (display, source.mask, hair_gradient(source.mask))))
     return np.clip(_run_pass(COLOR_GROUP, stage_inputs, values), 0, 1).astype(np.float32)

@@ -10,7 +10,7 @@ from collections.abc import Iterable
 from vto_core.errors import VtoError
 from vto_core.specs import ParamSpec, RendererSpec
 
-from ..compat import compositor_idname, enable_nodes, uses_nodes
+from ..compat import compositor_idname, compositor_tree, enable_nodes, uses_nodes
 
 # Bumped whenever a builder changes what it builds, so older groups in saved files are rebuilt.
 BUILDER_VERSION = 3
@@ -69,7 +69,9 @@ class Builder:
 def get_or_create_group(name: str, tree_type: str, build) -> bpy.types.NodeTree:
     """Return group `name`, (re)building it in place with build(group) if missing or stale.
 
-    Rebuilding in place keeps every material or compositor that already uses the group.
+    Rebuilding in place keeps every material or compositor that already uses the group, the links of its nodes there
+    and the input values the artist set on them (where the rebuilt group still has a socket of that name, and for a
+    value, of that type).
     """
     group = bpy.data.node_groups.get(name)
     if group is not None and group.bl_idname == tree_type and group.get(VERSION_KEY) == BUILDER_VERSION:
@@ -77,11 +79,66 @@ def get_or_create_group(name: str, tree_type: str, build) -> bpy.types.NodeTree:
     if group is None or group.bl_idname != tree_type:
         group = bpy.data.node_groups.new(name, tree_type)
         group.use_fake_user = True  # saved with the .blend even before a material uses it
+    kept = [(node, input_values(node), node_links(node)) for node in group_users(group)]
     group.nodes.clear()
-    group.interface.clear()
+    group.interface.clear()  # unlinks and resets every user node's sockets: `kept` puts them back
     build(group)
     group[VERSION_KEY] = BUILDER_VERSION
+    for node, values, links in kept:
+        set_input_values(node, values)
+        relink(node, links)
     return group
+
+
+def node_links(node: bpy.types.Node) -> list[tuple[bool, str, bpy.types.NodeSocket]]:
+    """The links of `node` in its tree: (into it, its socket's name, the other node's socket) each."""
+    return [(link.to_node == node, (link.to_socket if link.to_node == node else link.from_socket).name,
+             link.from_socket if link.to_node == node else link.to_socket)
+            for link in node.id_data.links if node in (link.to_node, link.from_node)]
+
+
+def relink(node: bpy.types.Node, links: list[tuple[bool, str, bpy.types.NodeSocket]]) -> None:
+    """node_links' record linked again where `node` still has a socket of that name."""
+    tree = node.id_data
+    for into, name, other in links:
+        own = (node.inputs if into else node.outputs).get(name)
+        if own is not None:
+            tree.links.new(*((other, own) if into else (own, other)))
+
+
+def group_users(group: bpy.types.NodeTree) -> list[bpy.types.Node]:
+    """Every node using `group`: in the node trees of materials, worlds and lights, in node groups and in scenes'
+    compositors."""
+    trees = [owner.node_tree for owner in (*bpy.data.materials, *bpy.data.worlds, *bpy.data.lights)
+             if owner.node_tree is not None]
+    trees += [*bpy.data.node_groups, *(compositor_tree(scene) for scene in bpy.data.scenes)]
+    unique = {tree.as_pointer(): tree for tree in trees if tree is not None}  # a 5.x compositor is a node group too
+    return [node for tree in unique.values() for node in tree.nodes if getattr(node, "node_tree", None) == group]
+
+
+def input_values(node: bpy.types.Node) -> dict[str, tuple[str, object]]:
+    """A node's input values by socket name (the first of a name): name -> (socket type, value, arrays copied)."""
+    values = {}
+    for socket in node.inputs:
+        if hasattr(socket, "default_value") and socket.name not in values:
+            value = socket.default_value
+            values[socket.name] = (socket.type, tuple(value) if isinstance(value, bpy.types.bpy_prop_array) else value)
+    return values
+
+
+def set_input_values(node: bpy.types.Node, values: dict[str, tuple[str, object]]) -> None:
+    """Set a group node's inputs from input_values' record (`values`, used up) where an input of that name and type
+    is still there, the others to the group's defaults: a node made before the rebuild would read 0 in them."""
+    defaults = {item.identifier: item.default_value for item in node.node_tree.interface.items_tree
+                if item.item_type == "SOCKET" and item.in_out == "INPUT" and hasattr(item, "default_value")}
+    for socket in node.inputs:
+        kind, value = values.pop(socket.name, (None, None))
+        value = value if kind == socket.type else defaults.get(socket.identifier)
+        if value is not None and hasattr(socket, "default_value"):
+            try:
+                socket.default_value = value
+            except (TypeError, ValueError):  # a value the rebuilt input no longer takes (a menu item gone, a size)
+                continue
 
 
 def add_spec_inputs(group: bpy.types.NodeTree, params: Iterable[ParamSpec]) -> None:

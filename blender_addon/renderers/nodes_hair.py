@@ -12,6 +12,7 @@ from .node_utils import Builder, add_spec_inputs, get_or_create_group
 
 SWATCH_GROUP = "VTO Hair Swatch"
 COLOR_GROUP = "VTO Hair Color"
+FIT_COLOR_GROUP = "VTO Hair Fit Color"  # the internal passes' copy: a fit never sets the curve of an artist's stage
 LUT_NODE = "Histogram LUT"
 BLUR_NODE = "Local Contrast Blur"
 
@@ -98,9 +99,10 @@ def swatch_group() -> bpy.types.NodeTree:
     return get_or_create_group(SWATCH_GROUP, COMPOSITOR_TREE, _build_swatch)
 
 
-def color_group() -> bpy.types.NodeTree:
-    """Get or create the pass-2 compositor group (LUT, shine, faded look, intensity)."""
-    return get_or_create_group(COLOR_GROUP, COMPOSITOR_TREE, _build_color)
+def color_group(name: str = COLOR_GROUP) -> bpy.types.NodeTree:
+    """Get or create the pass-2 compositor group (LUT, shine, faded look, intensity): the artist's stages'
+    (COLOR_GROUP), or the internal passes' (FIT_COLOR_GROUP)."""
+    return get_or_create_group(name, COMPOSITOR_TREE, _build_color)
 
 
 def set_blur_radius(group: bpy.types.NodeTree, radius: int) -> None:

@@ -105,6 +105,50 @@ def wire_hair_mask(scene, tree, render, color, whole: list, materials: list) -> 
         tree.links.new(masks[0], color.inputs["Mask"])
 
 
+OWN_RENDER_SIDE, OWN_RENDER_SAMPLES = 256, 16  # the artist's render the stage's curve is fitted on: a histogram
+MIN_HAIR_PIXELS = 64  # fewer hair pixels in that render: no curve is fitted
+
+
+def own_render_hair(scene, color):
+    """`scene`'s own render, small (cycles.render_user_passes), and its hair where `color` (its VTO Hair Color
+    node) takes its Mask: the ID Mask nodes on the render's passes (wire_hair_mask), a mask image, or the whole
+    frame when nothing is linked. Returns (HairSource, the full render's width in px, ''), or (None, 0, why) with
+    too little hair in view."""
+    from vto_core.imageio import resize
+
+    from ..compat import compositor_tree, id_mask_index
+    from .cycles import render_user_passes
+    from .hair import HairSource
+
+    if scene.camera is None:
+        return None, 0, f"scene '{scene.name}' has no camera: the stage's curve is left as it was"
+    passes = render_user_passes(scene, OWN_RENDER_SIDE, OWN_RENDER_SAMPLES)
+    rgb = np.clip(passes["Combined"][..., :3], 0.0, 1.0)
+    height, width = rgb.shape[:2]
+    mask = np.ones((height, width), bool)
+    link = color.inputs["Mask"].links[0] if color.inputs["Mask"].is_linked else None
+    ids = [node for node in compositor_tree(scene).nodes if node.name.startswith(HAIR_ID_MASK)]
+    if link is not None and ids:
+        mask = np.zeros((height, width), bool)
+        for node in ids:  # "VTO Hair ID Mask IndexOB": the pass it reads ends its name
+            read = node.name.rsplit(" ", 1)[1]
+            if read not in passes:
+                return None, 0, (f"scene '{scene.name}' renders no {read} pass ({scene.render.engine}): the "
+                                 "stage's curve is left as it was")
+            mask |= np.abs(passes[read][..., 0] - id_mask_index(node)) < 0.5
+    elif link is not None and getattr(link.from_node, "image", None) is not None:
+        image = link.from_node.image
+        pixels = np.empty(image.size[0] * image.size[1] * image.channels, np.float32)
+        image.pixels.foreach_get(pixels)
+        drawn = np.flipud(pixels.reshape(image.size[1], image.size[0], image.channels))[..., :3].mean(axis=-1)
+        mask = resize(drawn, height, width) > 0.5
+    if mask.sum() < MIN_HAIR_PIXELS:
+        return None, 0, (f"scene '{scene.name}' shows hardly any hair ({int(mask.sum())} pixels at {width} x "
+                         f"{height}): the stage's curve is left as it was")
+    full_width = scene.render.resolution_x * scene.render.resolution_percentage // 100
+    return HairSource(rgb.astype(np.float32), mask.astype(np.float32)), full_width, ""
+
+
 class HairRenderer(ProductRenderer):
     """VTO Hair Color: a two-pass compositor stage that matches the hair's histogram to a recoloured swatch."""
 
@@ -211,6 +255,27 @@ class HairRenderer(ProductRenderer):
 
     def where(self, scene):
         return f"the compositor of scene '{scene.name}'"
+
+    def fitted_target(self, scene, values):
+        """The curve of `scene`'s VTO Hair Color fitted to the hair of the scene's own render (own_render_hair) for
+        `values`, in the compositor's scene-linear values: the stage then matches the artist's own hair, not a
+        default one's, to the recoloured swatch."""
+        from .hair import set_stage, stage_match
+        from .nodes_hair import COLOR_GROUP
+
+        colors = [node for node in self.nodes(scene) if node.node_tree.name.startswith(COLOR_GROUP)]
+        if not colors:
+            return (lambda: None), []
+        source, width, why = own_render_hair(scene, colors[0])
+        if source is None:
+            return (lambda: None), [why]
+        match = stage_match(source, self.product.spec.full_values(values), scene_linear=True)
+
+        def write():
+            for group in {node.node_tree for node in colors}:
+                set_stage(group, match, width)
+
+        return write, [f"the hair's curve fitted to the hair of scene '{scene.name}' as it renders"]
 
     def missing_group(self, scene):
         return f"scene '{scene.name}' has no VTO hair compositor groups (add them with Add VTO Hair Compositor)"

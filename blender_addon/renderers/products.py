@@ -94,6 +94,11 @@ class ProductRenderer:
         """How a message names `target`: "material 'Lips'"."""
         raise NotImplementedError
 
+    def fitted_target(self, target, values: dict[str, float]) -> tuple[Callable[[], None], list[str]]:
+        """What writing `values` into `target` needs beyond its group inputs, computed now and written only by the
+        callable returned (with notes for the user): nothing for most products."""
+        return (lambda: None), []
+
     def missing_group(self, target) -> str:
         """The one line for a target that holds no group of the product (and how to add one)."""
         raise NotImplementedError

@@ -12,6 +12,7 @@ from vto_core.errors import VtoError, failure_line
 from vto_core.products import LIPSTICK, PRODUCTS, either, get_product, product_of_target
 
 from ..matching import apply
+from ..renderers import makeup_layer
 from ..renderers.products import blender_side
 from . import preview
 from .preferences import preference_model
@@ -84,6 +85,120 @@ class VTO_OT_add_lipstick_material(bpy.types.Operator):
 
     def execute(self, context):
         return add_material(self, context, LIPSTICK)
+
+
+_LAYER_ITEMS: list = []  # Blender keeps no copy of a callback's enum strings: they live here
+
+
+def layer_product_items(self, context) -> list:
+    """The face-layer products (vto_core.products; makeup_layer.layer_products), one item each, the first the
+    default."""
+    items = [(p.name, p.label, f"The {p.group_text} over the skin where the mesh's '{p.face_region.attribute}' "
+              "attribute is") for p in makeup_layer.layer_products()]
+    if items != _LAYER_ITEMS:
+        _LAYER_ITEMS[:] = items
+    return _LAYER_ITEMS
+
+
+def change_layer(operator, context, change, done: str) -> set:
+    """change(material, product) on the active object's active material, reported in one line either way."""
+    obj = context.object
+    product = get_product(operator.product)
+    try:
+        if obj is None or obj.active_material is None:
+            raise VtoError(f"object '{obj.name}' has no material: give it its skin material first" if obj is not None
+                           else "no active object: select the character's head mesh")
+        change(obj.active_material, product)
+    except VtoError as exc:
+        operator.report({"ERROR"}, str(exc))
+        return {"CANCELLED"}
+    operator.report({"INFO"}, f"{done} the {product.label} layer of material '{obj.active_material.name}'")
+    return {"FINISHED"}
+
+
+class VTO_OT_add_makeup_layer(bpy.types.Operator):
+    """Layer the chosen product into the active object's own material, over its skin shader, where the mesh's face
+    region attribute (Find Face on Mesh) is"""
+
+    bl_idname = "vto.add_makeup_layer"
+    bl_label = "Add Makeup Layer"
+    bl_options = {"REGISTER", "UNDO"}
+
+    product: EnumProperty(name="Product", items=layer_product_items, description="The product layered over the skin")
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None
+
+    def execute(self, context):
+        return change_layer(self, context, makeup_layer.add_layer, "added")
+
+
+class VTO_OT_remove_makeup_layer(bpy.types.Operator):
+    """Take the chosen product's layer out of the active object's material, which is then as it was without it"""
+
+    bl_idname = "vto.remove_makeup_layer"
+    bl_label = "Remove Makeup Layer"
+    bl_options = {"REGISTER", "UNDO"}
+
+    product: EnumProperty(name="Product", items=layer_product_items, description="The product whose layer goes")
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None
+
+    def execute(self, context):
+        return change_layer(self, context, makeup_layer.remove_layer, "removed")
+
+
+class VTO_OT_choose_layer(bpy.types.Operator):
+    """Fill this makeup layer with the next Match (its group becomes the material's active node)"""
+
+    bl_idname = "vto.choose_layer"
+    bl_label = "Choose Makeup Layer"
+    bl_options = {"REGISTER", "UNDO"}
+
+    material_name: StringProperty(name="Material", description="The material wearing the layers")
+    product: EnumProperty(name="Product", items=material_product_items, description="The layer Match fills")
+
+    def execute(self, context):
+        material = bpy.data.materials.get(self.material_name)
+        try:
+            if material is None:
+                raise VtoError(f"no material '{self.material_name}' in this .blend")
+            apply.choose_layer(material, get_product(self.product))
+        except VtoError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        return {"FINISHED"}
+
+
+def layer_choice(layout, material) -> None:
+    """Where `material` wears several VTO groups, a row of them, the one Match fills pressed (vto.choose_layer)."""
+    worn = apply.worn_products(material)
+    if len(worn) < 2:
+        return
+    chosen = apply.material_product(material)
+    row = layout.row(align=True)
+    row.label(text="Fill:")
+    for product in worn:
+        button = row.operator(VTO_OT_choose_layer.bl_idname, text=product.label, depress=product is chosen)
+        button.material_name, button.product = material.name, product.name
+
+
+def layer_buttons(layout, material) -> None:
+    """An "Add <Product> Layer" button a face layer `material` does not wear, a "Remove <Product> Layer" one a layer
+    it wears (vto.add_makeup_layer, vto.remove_makeup_layer); none without a material."""
+    if material is None:
+        return
+    worn = [product for product, _ in makeup_layer.layers(material)]
+    for product in makeup_layer.layer_products():
+        if product in worn:
+            layout.operator(VTO_OT_remove_makeup_layer.bl_idname, text=f"Remove {product.label} Layer",
+                            icon="REMOVE").product = product.name
+        elif not blender_side(product).nodes(material):
+            layout.operator(VTO_OT_add_makeup_layer.bl_idname, text=f"Add {product.label} Layer",
+                            icon="ADD").product = product.name
 
 
 class VTO_OT_add_hair_compositor(bpy.types.Operator):
@@ -334,7 +449,48 @@ class VTO_OT_preview_on_photo(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (VTO_OT_add_material, VTO_OT_add_lipstick_material, VTO_OT_add_hair_compositor, VTO_OT_match_from_photo,
+class VTO_OT_find_face(bpy.types.Operator):
+    """Find the face on the active mesh (a head, or a whole body): render it from its front, read the render with the
+    face models, and write its lips and eyelids as the attributes the makeup layers read"""
+
+    bl_idname = "vto.find_face"
+    bl_label = "Find Face on Mesh"
+    bl_options = {"REGISTER", "UNDO"}
+
+    use_scene_camera: BoolProperty(name="From the Scene Camera", default=False,
+                                   description="See the face from the scene's camera (default: the mesh's own front, "
+                                               "back or sides, whichever shows a face)")
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None
+
+    def execute(self, context):
+        from ..matching.face_on_mesh import drawn_landmarks, face_layers, find_face, place_camera
+
+        camera = context.scene.camera if self.use_scene_camera else None
+        try:
+            if self.use_scene_camera and camera is None:
+                raise VtoError(f"scene '{context.scene.name}' has no camera")
+            found = find_face(context.object, camera)
+        except VtoError as exc:
+            self.report({"ERROR"}, failure_line(exc))
+            return {"CANCELLED"}
+        place_camera(context.scene, context.object, found.view)
+        preview.show_found_face(context.object.name, drawn_landmarks(found, face_layers()))
+        for area in (a for a in getattr(context.screen, "areas", ()) if a.type == "VIEW_3D"):
+            shading = area.spaces.active.shading  # the regions found, in the viewport's solid shading
+            if shading.type == "SOLID":
+                shading.color_type = "VERTEX"
+        for note in found.notes:
+            self.report({"WARNING"}, note)
+        found_text = ", ".join(f"{name} on {count} vertices" for name, count in found.counts.items())
+        self.report({"INFO"}, f"found the face on '{context.object.name}': {found_text}")
+        return {"FINISHED"}
+
+
+CLASSES = (VTO_OT_find_face, VTO_OT_add_material, VTO_OT_add_lipstick_material, VTO_OT_add_makeup_layer,
+           VTO_OT_remove_makeup_layer, VTO_OT_choose_layer, VTO_OT_add_hair_compositor, VTO_OT_match_from_photo,
            VTO_OT_preview_on_photo)
 
 

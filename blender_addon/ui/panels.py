@@ -1,5 +1,6 @@
 """The "Match from photo" panels: the top of Material Properties and the Shader Editor's sidebar (a material's
-product: lipstick, eye shadow), the Compositor's sidebar (hair)."""
+product: lipstick, eye shadow), the Compositor's sidebar (hair); and the 3D Viewport's sidebar (the artist's
+character)."""
 
 from __future__ import annotations
 
@@ -11,9 +12,11 @@ import bpy
 from vto_core.products import Product, get_spec
 
 from ..matching import apply
+from ..matching.face_on_mesh import face_layers
+from ..renderers.makeup_layer import layers
 from . import preview, thumbnail, warmup
-from .operators import (VTO_OT_add_hair_compositor, VTO_OT_match_from_photo, VTO_OT_preview_on_photo,
-                        add_material_buttons)
+from .operators import (VTO_OT_add_hair_compositor, VTO_OT_find_face, VTO_OT_match_from_photo, VTO_OT_preview_on_photo,
+                        add_material_buttons, layer_buttons, layer_choice)
 from .preferences import preference_model
 
 THUMBNAIL_SCALE = 6.0  # the reference's thumbnail: 6 icon rows high
@@ -157,7 +160,12 @@ class MaterialMatch:
 
     def draw(self, context):
         material = context.material
+        layer_choice(self.layout, material)
         draw_match(self.layout, context, material.vto_match, apply.material_product(material), material.name)
+        if layers(material):  # a skin material wearing makeup layers: the next one, or one taken out, set apart
+            box = self.layout.box()  # from Match, so that a click meant for Match never removes a layer
+            box.label(text="Makeup layers of this material")
+            layer_buttons(box.column(), material)
 
 
 class VTO_PT_match_material(MaterialMatch, bpy.types.Panel):
@@ -196,6 +204,7 @@ class VTO_PT_match_shader(SidebarPanel, bpy.types.Panel):
 
     def draw(self, context):
         material = context.space_data.id
+        layer_choice(self.layout, material)
         draw_match(self.layout, context, material.vto_match, apply.material_product(material), material.name)
 
 
@@ -219,7 +228,8 @@ class VTO_PT_match_hair(SidebarPanel, bpy.types.Panel):
 
 
 class VTO_PT_add_lipstick(bpy.types.Panel):
-    """A starting point: add a VTO material (lipstick, eye shadow) to the active mesh when its material has none"""
+    """A starting point: add a VTO material (lipstick, eye shadow) to the active mesh when its material has none, or
+    layer makeup into the material it has"""
 
     bl_label = "Match from photo"
     bl_idname = "VTO_PT_add_lipstick"
@@ -237,10 +247,39 @@ class VTO_PT_add_lipstick(bpy.types.Panel):
     def draw(self, context):
         self.layout.label(text="This material uses no VTO group")
         add_material_buttons(self.layout)
+        layer_buttons(self.layout, getattr(context, "material", None))  # or layer makeup into this material
+
+
+class VTO_PT_character(bpy.types.Panel):
+    """The artist's own character, in the 3D Viewport's sidebar (VTO tab): Find Face on Mesh, what it found, and the
+    makeup layers of the active material"""
+
+    bl_label = "Character"
+    bl_idname = "VTO_PT_character"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "VTO"
+
+    @classmethod
+    def poll(cls, context):
+        obj = getattr(context, "object", None)
+        return obj is not None and obj.type == "MESH"
+
+    def draw(self, context):
+        obj = context.object
+        self.layout.operator(VTO_OT_find_face.bl_idname, icon="USER")
+        found = [product.face_region for product in face_layers()
+                 if product.face_region.attribute in obj.data.attributes]
+        self.layout.label(text=f"Found: {', '.join(region.name for region in found)}" if found
+                          else "No face regions on this mesh yet", icon="CHECKMARK" if found else "INFO")
+        icon_id, _ = preview.found_face(obj.name)
+        if icon_id:
+            self.layout.template_icon(icon_value=icon_id, scale=8.0)
+        layer_buttons(self.layout, obj.active_material)
 
 
 CLASSES = (VTO_PT_match_material, VTO_PT_match_material_cycles, VTO_PT_match_shader, VTO_PT_match_hair,
-           VTO_PT_add_lipstick)
+           VTO_PT_add_lipstick, VTO_PT_character)
 _registered: list = []
 
 

@@ -1,6 +1,6 @@
-"""The panel's *Preview on Photo*: the reference photo's lips (eyes) beside the material's current values tried on them
-(blender_addon.renderers.tryon). Made after Match and on request, never on a slider move; a preview image only,
-so nothing in the .blend changes and undo is untouched."""
+"""The panel's pictures. *Preview on Photo*: the reference photo's lips (eyes) beside the material's current values
+tried on them (blender_addon.renderers.tryon), made after Match and on request, never on a slider move. *Find Face on
+Mesh*'s front render with its landmarks. Preview images only, so nothing in the .blend changes and undo is untouched."""
 
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ from .thumbnail import preview_icon, reference_pixels
 SIZE = 96  # px: each half of the preview (the photo, the try-on)
 SAMPLES = 8  # Cycles samples: a preview, not a dataset
 _made: dict[str, tuple[int, str, np.ndarray | None]] = {}  # material name -> (icon id, the note, the picture)
+_found: dict[str, tuple[int, np.ndarray]] = {}  # object name -> (icon id, Find Face on Mesh's front render)
 
 
 def material_values(material) -> tuple[object, dict[str, float]]:
@@ -60,6 +61,19 @@ def picture(material) -> np.ndarray | None:
     return _made.get(material.name, (0, "", None))[2]
 
 
+def show_found_face(name: str, picture: np.ndarray) -> int:
+    """Keep Find Face on Mesh's front render of object `name`, with its landmarks, (H, W, 3) for the panel: its icon
+    id (0 headless)."""
+    _found[name] = (preview_icon(f"face:{name}", picture), picture)
+    return _found[name][0]
+
+
+def found_face(name: str) -> tuple[int, np.ndarray | None]:
+    """The last front render Find Face on Mesh made of object `name`: (icon id, pixels), or (0, None)."""
+    return _found.get(name, (0, None))
+
+
 def unregister() -> None:
     """Forget the previews (their images go with the thumbnail's, thumbnail.unregister)."""
     _made.clear()
+    _found.clear()

@@ -144,3 +144,46 @@ def test_a_free_pass_index_keeps_a_shared_one_and_avoids_the_others_ids():
     assert free_pass_index([a, b], [a, b, c]) == 3  # theirs, used by nothing else
     assert free_pass_index([a], [a, Item(3), c]) == 4  # another id uses 3
     assert free_pass_index([Item(0)], [c]) == 2
+
+
+def test_a_match_fits_the_stage_to_the_renders_own_hair(shot):
+    """After a hair Match's write, the artist's render shows the recoloured swatch's colour on its hair (the curve
+    fitted to that render's own hair, in scene-linear values), and a later fit of the internal passes leaves it."""
+    from blender_addon.renderers.hair import load_swatch, render_hair
+    from blender_addon.renderers.nodes_hair import COLOR_GROUP, LUT_NODE
+    from vto_core.colour import srgb_to_lab
+    from vto_core.hair import swatch_target
+    from vto_core.presets import load_presets
+    from vto_core.products import HAIR
+
+    scene, head, hair = shot
+    scene.view_settings.view_transform = "Standard"  # what is shown is the scene-linear values, sRGB-encoded
+    RENDERER.add_group(scene, [hair])
+    presets = load_presets(HAIR.name)
+    for name in ("Platinum", "Soft Black"):
+        values = HAIR.spec.full_values(presets[name])
+        values.update(shine=0.0, intensity=1.0)  # the colour alone, over all the hair
+        for node in RENDERER.nodes(scene):  # as a Match writes them
+            for param in HAIR.spec.params:
+                if param.socket in node.inputs:
+                    node.inputs[param.socket].default_value = values[param.name]
+        settings = lambda: (scene.render.resolution_percentage, scene.render.use_compositing,  # noqa: E731
+                            scene.render.filepath, scene.cycles.samples, scene.cycles.use_denoising,
+                            scene.render.image_settings.file_format)
+        scene.cycles.use_denoising = True  # the fit's render turns it off (a Blender without OpenImageDenoise)
+        before = settings()
+        write, notes = RENDERER.fitted_target(scene, values)
+        assert settings() == before  # the scene rendered small for the fit, then as it was
+        scene.cycles.use_denoising = False
+        write()
+        assert notes == [f"the hair's curve fitted to the hair of scene '{scene.name}' as it renders"]
+        scene.render.use_compositing = True
+        shown = render_user_scene(scene, seed=0)
+        inner = ndimage.binary_erosion(hair_pixels(scene, hair), iterations=2)
+        target = swatch_target(load_swatch(), values).reshape(-1, 3).mean(axis=0)
+        error = np.abs(srgb_to_lab(shown[inner].mean(axis=0)[None])[0] - srgb_to_lab(target[None])[0])[0]
+        assert error < 6.0, f"{name}: the hair's L* {error:.1f} off the recoloured swatch's"
+    curve = [tuple(p.location) for p in bpy.data.node_groups[COLOR_GROUP].nodes[LUT_NODE].mapping.curves[0].points]
+    render_hair(values, 1, 16, 1)  # the internal passes fit their own group
+    assert [tuple(p.location) for p in bpy.data.node_groups[COLOR_GROUP].nodes[LUT_NODE].mapping.curves[0].points] \
+        == curve
