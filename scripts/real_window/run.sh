@@ -3,10 +3,15 @@
 # Builds the linux-x64 zip, installs it from disk as an artist does (no hand edits), opens a .blend with a lips
 # material, presses Match (Fast, then Better) in the Material tab on a whole portrait, Match (Fast) on an eye-shadow
 # material with the portrait wearing eye shadow, and Match (Fast, then Better) in the Compositor's sidebar on the hair, with real X11 clicks (xdotool), undoes with a real ctrl+z, and saves
-# screenshots and result.json in OUT.   Needs root (chroot, mounts).
-#   usage: bash scripts/real_window/run.sh [OUT]     (default /work/cache/real-blender/out; about 3 min with the
+# screenshots and result.json in OUT. Stage 3, the artist's own character: the MakeHuman head (a copy of
+# data/heads/makehuman.blend) in the 3D Viewport, Find Face on Mesh, Add Lipstick Layer and Add Eye Shadow Layer
+# clicked in its sidebar, Match clicked for each layer on the portrait wearing eye shadow, then Material Preview through
+# the face camera.   Needs root (chroot, mounts).
+#   usage: bash scripts/real_window/run.sh [OUT]     (default /work/cache/real-blender/out; about 4 min with the
 #          chroot made by setup_chroot.sh, which this runs first: about 3 min and 1.5 GB the first time)
-#   VTO_UPDATE_DOCS=1 also copies the panel crops to docs/panel_*.png (the README's pictures).
+#   VTO_UPDATE_DOCS=1 also copies the panel crops to docs/panel_*.png (the README's pictures) and the character's
+#          screenshots to docs/character_window_*.png.
+#   VTO_STAGES=3 runs the window stages named (default 23: both; stage 1, the install, always runs).
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd); PROJECT=$(cd "$HERE/../.." && pwd)
 CACHE=${VTO_REAL_BLENDER:-/work/cache/real-blender}
@@ -39,7 +44,10 @@ PYEOF
 # The eye-shadow reference: the same portrait wearing Royal Purple on both lids (`vto tryon eyeshadow`, Cycles here).
 "$PROJECT/.venv/bin/vto" tryon eyeshadow --image "$P/astronaut.png" --params "Royal Purple" --out "$P/eyes.png" \
     > "$OUT/tryon.log" 2>&1 || { tail -5 "$OUT/tryon.log"; exit 3; }
-cp "$HERE/stage1_install.py" "$HERE/stage2_gui.py" "$P/"
+cp "$HERE/stage1_install.py" "$HERE/stage2_gui.py" "$HERE/stage3_character.py" "$P/"
+# The character: the MakeHuman base mesh (CC0; one mesh "head" under one skin material, and the eyes).
+cp "$PROJECT/data/heads/makehuman.blend" "$P/makehuman.blend"
+STAGES=${VTO_STAGES:-23}
 
 # 1. blender -b: install from disk into a fresh user folder, save the preferences, save lips.blend.
 chroot "$R" env HOME=/$PN BLENDER_USER_RESOURCES=/$PN/user blender -b --factory-startup \
@@ -47,17 +55,32 @@ chroot "$R" env HOME=/$PN BLENDER_USER_RESOURCES=/$PN/user blender -b --factory-
     > "$OUT/stage1.log" 2>&1 || { tail -30 "$OUT/stage1.log"; exit 3; }
 # 2. the window: Xvfb 1600x1000, Mesa llvmpipe; every step on a timer, clicks and keys from xdotool. On failure
 #    (exit 4) OUT still gets what stage 2 wrote: result.json up to the step it reached, and the screenshots.
-chroot "$R" env HOME=/$PN BLENDER_USER_RESOURCES=/$PN/user timeout 480 \
-    xvfb-run -a -s "-screen 0 1600x1000x24" blender /$PN/lips.blend --python-exit-code 3 \
-    --python /$PN/stage2_gui.py -- /$PN/astronaut.png /$PN/astronaut.png /$PN/out /$PN/eyes.png \
-    > "$OUT/stage2.log" 2>&1 || { cp "$P"/out/* "$OUT/" 2>/dev/null; tail -30 "$OUT/stage2.log"; exit 4; }
-cp "$P"/out/* "$OUT/"
-grep -h "^RESULT\|^STEP" "$OUT/stage1.log" "$OUT/stage2.log" | cut -c1-200
+FAILED=0
+if [[ $STAGES == *2* ]]; then
+    chroot "$R" env HOME=/$PN BLENDER_USER_RESOURCES=/$PN/user timeout 480 \
+        xvfb-run -a -s "-screen 0 1600x1000x24" blender /$PN/lips.blend --python-exit-code 3 \
+        --python /$PN/stage2_gui.py -- /$PN/astronaut.png /$PN/astronaut.png /$PN/out /$PN/eyes.png \
+        > "$OUT/stage2.log" 2>&1 || { tail -30 "$OUT/stage2.log"; FAILED=4; }
+fi
+# 3. the character, in a window of its own (the head .blend opened): its entries join stage 2's in result.json
+#    (under "character"). On failure (exit 5) OUT still gets what it wrote.
+if [[ $STAGES == *3* ]]; then
+    chroot "$R" env HOME=/$PN BLENDER_USER_RESOURCES=/$PN/user timeout 480 \
+        xvfb-run -a -s "-screen 0 1600x1000x24" blender /$PN/makehuman.blend --python-exit-code 3 \
+        --python /$PN/stage3_character.py -- /$PN/eyes.png /$PN/out \
+        > "$OUT/stage3.log" 2>&1 || { tail -30 "$OUT/stage3.log"; [ $FAILED != 0 ] || FAILED=5; }
+fi
+cp "$P"/out/* "$OUT/" 2>/dev/null || true
+[ $FAILED = 0 ] || exit $FAILED
+grep -h "^RESULT\|^STEP" "$OUT/stage1.log" "$OUT"/stage[23].log | cut -c1-200
 ls "$OUT"/result.json
 if [ "${VTO_UPDATE_DOCS:-0}" = 1 ]; then
     for pair in lips_before:panel_before_match lips_after:panel_after_match lips_better:panel_after_better \
                 hair_better:panel_hair_after_better hair_after:panel_hair_after_match \
                 eyes_matched:panel_eyeshadow_after_match; do
-        cp "$OUT/${pair%%:*}_panel.png" "$PROJECT/docs/${pair#*:}.png"
+        if [[ $STAGES == *2* ]]; then cp "$OUT/${pair%%:*}_panel.png" "$PROJECT/docs/${pair#*:}.png"; fi
+    done
+    for name in before found matched; do  # the head and the sidebar (and, matched, the Match panel) in one crop
+        if [[ $STAGES == *3* ]]; then cp "$OUT/character_${name}_docs.png" "$PROJECT/docs/character_window_$name.png"; fi
     done
 fi

@@ -20,10 +20,12 @@ import traceback
 
 import bpy
 
-LIPS_REF, HAIR_REF, OUT, EYES_REF = sys.argv[sys.argv.index("--") + 1:][:4]
 RESULT = {"python": sys.version.split()[0], "blender": bpy.app.version_string, "errors": [], "notes": []}
 T0 = time.time()
 STALL_S = 90  # Blender's main loop stalled this long (no timer tick): dump every thread's Python stack and exit
+# From the command line (below); a stage importing these helpers (stage3_character.py) sets OUT, where result.json
+# and the screenshots go.
+LIPS_REF = HAIR_REF = OUT = EYES_REF = None
 
 
 def log(*args):
@@ -543,23 +545,29 @@ def script():
     RESULT["completed"] = True
 
 
-STEPS = script()
+def run(steps, stage, shown=("lips", "eyes", "hair", "errors", "notes"), stall_s=None):
+    """Run the generator `steps` on Blender's timer (each value it yields: seconds to the next step), then save
+    result.json, print its `shown` parts as one line "RESULT <stage> ..." and exit. A main loop stalled for `stall_s`
+    (default STALL_S) seconds dumps every thread's Python stack into the log and exits."""
+
+    def tick():
+        # re-armed at each tick: a deadlock fails fast, with stacks
+        faulthandler.dump_traceback_later(stall_s or STALL_S, exit=True)
+        try:
+            return next(steps)
+        except StopIteration:
+            pass
+        except Exception:
+            RESULT["errors"].append(traceback.format_exc())
+            traceback.print_exc()
+        save()
+        print(f"RESULT {stage} " + json.dumps({k: v for k, v in RESULT.items() if k in shown})[:4000])
+        sys.stdout.flush()
+        os._exit(0)  # quit_blender from a timer may refuse ("drawing/rendering"); nothing is left to save
+
+    bpy.app.timers.register(tick, first_interval=3.0)
 
 
-def tick():
-    faulthandler.dump_traceback_later(STALL_S, exit=True)  # re-armed at each tick: a deadlock fails fast, with stacks
-    try:
-        return next(STEPS)
-    except StopIteration:
-        pass
-    except Exception:
-        RESULT["errors"].append(traceback.format_exc())
-        traceback.print_exc()
-    save()
-    shown = {k: v for k, v in RESULT.items() if k in ("lips", "eyes", "hair", "errors", "notes")}
-    print("RESULT stage2 " + json.dumps(shown)[:4000])
-    sys.stdout.flush()
-    os._exit(0)  # quit_blender from a timer may refuse ("drawing/rendering"); nothing is left to save
-
-
-bpy.app.timers.register(tick, first_interval=3.0)
+if __name__ == "__main__":  # (Blender runs a --python script as __main__)
+    LIPS_REF, HAIR_REF, OUT, EYES_REF = sys.argv[sys.argv.index("--") + 1:][:4]
+    run(script(), "stage2")

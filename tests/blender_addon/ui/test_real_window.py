@@ -226,3 +226,64 @@ def test_the_operator_reports_the_time_of_each_click(run):
     assert len(times) == 3 and all(0.0 < t < 60_000.0 for t in times), times
     better = run.part("hair", "better_ms")
     assert better and all(max(times[1:]) < t < 120_000.0 for t in better), (times, better)
+
+
+def character_part(run, *keys):
+    """run.part("character", ...), the failure naming stage 3's log (stage3.log) tail."""
+    log = run.out / "stage3.log"
+    tail = "\n".join([line for line in (log.read_text(errors="replace").splitlines() if log.exists() else [])
+                      if not line.startswith("Fra:")][-30:])
+    try:
+        return run.part("character", *keys)
+    except AssertionError as exc:
+        raise AssertionError(f"{exc}\nstage3.log:\n{tail}") from None
+
+
+def test_find_face_on_the_makehuman_head_by_a_click_in_the_viewport_sidebar(run):
+    """Stage 3: the MakeHuman head in the 3D Viewport, the VTO tab chosen by a click, Find Face on Mesh clicked: the
+    lips and the eyelids found on more than 20 vertices each, the regions shown in the solid shading (the active colour
+    attribute, the viewport's colour Attribute), the face camera placed, the front render's thumbnail made."""
+    counts = character_part(run, "counts")
+    assert character_part(run, "sidebar_tab") == "VTO"
+    assert counts["vto_lips"] > 20 and counts["vto_eyelids"] > 20, counts
+    found = run.window["character"]
+    assert {"vto_lips", "vto_eyelids", "vto_lid", "vto_lid_u", "vto_regions"} <= set(found["attributes"])
+    assert found["active_color"] == "vto_regions"
+    assert found["shading"] == {"type": "SOLID", "color_type": "VERTEX"}
+    assert found["camera"] == f"VTO Face Camera {found['object']}" and found["thumbnail_icon"] > 0
+    assert 0.0 < found["find_face_s"] < 240.0, found["find_face_s"]
+    for name in ("character_before", "character_found"):
+        assert (run.out / f"{name}_panel.png").stat().st_size > 1000
+        assert (run.out / f"{name}_docs.png").stat().st_size > 10_000
+
+
+def test_makeup_layers_added_by_clicks_match_the_portrait_each_in_turn(run):
+    """Stage 3: Add Lipstick Layer and Add Eye Shadow Layer clicked; Match (Fast) fills the eye shadow first (the
+    newest), then Lipstick clicked in the Fill row and Match fills the lipstick: both layers' colours written, other
+    than the groups' defaults, each Match leaving the other layer as it was; the eye shadow of the portrait wearing
+    Royal Purple (98, 52, 150) read bluer than red."""
+    character_part(run, "lipstick")  # (the last step recorded)
+    character = run.window["character"]
+    assert character["layers"] == ["lipstick", "eyeshadow"] and character["chosen_first"] == "eyeshadow"
+    assert character["reference"].endswith("eyes.png")
+    assert character["lipstick_chosen_by"] in ("click", "property")
+    defaults = character["defaults"]
+    colour = ("Red", "Green", "Blue", "Opacity")
+    for name in ("eyeshadow", "lipstick"):
+        written = character[name]["values"]
+        assert set(colour) <= set(written) and {k for k in colour if written[k] != defaults[name][k]}, (
+            name, written, defaults[name])
+        assert json.loads(character[name]["estimate"])["renderer"] == name
+        assert 0.0 < character[name]["ms"] < 60_000.0
+    assert character["lipstick_after_eyeshadow_match"] == defaults["lipstick"]  # Match filled the eye shadow only
+    assert character["eyeshadow_after_lipstick_match"] == character["eyeshadow"]["values"]
+    eyes = character["eyeshadow"]["values"]
+    assert eyes["Blue"] > eyes["Red"] and eyes["Blue"] > eyes["Green"] + 20, eyes
+
+
+def test_the_matched_character_shows_its_makeup_through_the_face_camera(run):
+    """Stage 3: the viewport in Material Preview (or Rendered) through the face camera shows the eye shadow."""
+    preview = character_part(run, "preview")
+    assert character_part(run, "completed")
+    assert preview["shading"] in ("MATERIAL", "RENDERED") and preview["settled"] and preview["purple_pixels"] >= 100
+    assert (run.out / "character_matched_docs.png").stat().st_size > 10_000
