@@ -183,7 +183,7 @@ def head_colours(name: str, layers, res: int, samples: int):
 
 
 def main(argv: list[str] | None = None) -> None:
-    from blender_addon.matching.face_on_mesh import face_layers
+    from blender_addon.renderers.makeup_layer import layer_products
     from vto_core.colour import ciede2000
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -191,7 +191,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--res", type=int, default=384)
     parser.add_argument("--samples", type=int, default=32)
     args = parser.parse_args(argv)
-    layers = [(product, matte_presets(product, args.presets)) for product in face_layers()]
+    layers = [(product, matte_presets(product, args.presets)) for product in layer_products()]
     defaults = {product.name: default_scene_colours(product, presets, args.res, args.samples)
                 for product, presets in layers}
     rows, worst = [], {"raw": 0.0, "divided": 0.0}

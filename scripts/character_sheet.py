@@ -353,9 +353,10 @@ def main() -> None:
 
     from benchmarks.heads import open_head
     from blender_addon.matching import apply
-    from blender_addon.matching.face_on_mesh import (REGION_COLOURS, drawn_landmarks, face_layers, find_face,
+    from blender_addon.matching.face_on_mesh import (REGION_COLOURS, drawn_landmarks, find_face,
                                                      place_camera, scene_attributes)
     from blender_addon.renderers.cycles import configure_cycles, render_user_scene
+    from blender_addon.renderers.makeup_layer import layer_products
     from blender_addon.renderers.products import blender_side
     from vto_core.products import HAIR
 
@@ -390,7 +391,7 @@ def main() -> None:
     done("character_head.png", head)
 
     # 2. What Find Face found: the landmarks on its front render, the regions tinted on the head.
-    layers = face_layers()
+    layers = layer_products()
     names = tuple(product.face_region.attribute for product in layers)
     weights = scene_attributes(scene, names, RES)
     tinted = head.copy()
@@ -399,7 +400,7 @@ def main() -> None:
         tinted = tinted * (1 - w) + np.array(tint, np.float32) * w
     legend = ", ".join(f"{['red', 'blue', 'green', 'yellow'][k]}: {name}" for k, name in enumerate(names))
     done("character_found.png", sheet([
-        (drawn_landmarks(found, layers), ["Find Face on Mesh: the front render,", "the face's landmarks found"]),
+        (drawn_landmarks(found), ["Find Face on Mesh: the front render,", "the face's landmarks found"]),
         (tinted, ["the regions written on the mesh", legend])]))
 
     # 3. The look of a real portrait, matched into the head's own skin material.

@@ -208,7 +208,7 @@ def cmd_find_face(argv: list[str]) -> int:
     import bpy
 
     from ..blendfile import mesh_object, open_mesh_file, save_blend_atomic
-    from .face_on_mesh import drawn_landmarks, face_layers, find_face, place_camera
+    from .face_on_mesh import drawn_landmarks, find_face, place_camera
 
     open_mesh_file(args.mesh)
     obj = mesh_object(args.object)
@@ -220,7 +220,7 @@ def cmd_find_face(argv: list[str]) -> int:
     seconds = time.perf_counter() - start
     place_camera(bpy.context.scene, obj, found.view)
     if args.preview:
-        write_image(args.preview, drawn_landmarks(found, face_layers()))
+        write_image(args.preview, drawn_landmarks(found))
     for note in found.notes:
         print(f"vto find-face: {note}", file=sys.stderr)
     out = save_blend_atomic(args.out)

@@ -15,10 +15,11 @@ import numpy as np
 from vto_core.errors import VtoError
 from vto_core.photo.face_regions import region_width
 from vto_core.photo.surface_regions import edge_width, region_on_surface
-from vto_core.products import PRODUCTS, either
+from vto_core.products import either
 
 from ..compat import enable_nodes
 from ..renderers.cycles import configure_cycles, render_passes, to_display
+from ..renderers.makeup_layer import layer_products
 from ..renderers.products import blender_side
 from ..shipped import photo_reader
 
@@ -192,11 +193,16 @@ def front_scene(obj: bpy.types.Object):
         bpy.data.batch_remove(made)
 
 
-def render_view(scene, camera, key, view: View, near: float, far: float) -> np.ndarray:
-    """The scene through `view`: (res, res, 3) display sRGB."""
+def aim(camera: bpy.types.Object, view: View, near: float, far: float) -> None:
+    """Put camera object `camera` on `view`, its lens and clipping (`near`, `far`) with it."""
     camera.matrix_world = view.matrix()
     camera.data.lens = view.focal * camera.data.sensor_width
     camera.data.clip_start, camera.data.clip_end = max(near, 1e-4), far
+
+
+def render_view(scene, camera, key, view: View, near: float, far: float) -> np.ndarray:
+    """The scene through `view`: (res, res, 3) display sRGB."""
+    aim(camera, view, near, far)
     key.matrix_world = view.matrix()
     key.rotation_euler.rotate_axis("X", -math.radians(35))  # from above the camera, as a portrait's key
     configure_cycles(scene, view.res, SAMPLES)
@@ -224,9 +230,9 @@ def fronts(rotation: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     return tried
 
 
-def search_views(surface: Surface, obj: bpy.types.Object, camera: bpy.types.Object | None):
+def search_views(surface: Surface, camera: bpy.types.Object | None):
     """The views that may show the face: the scene camera's alone when given; else, for each front of FRONTS (in
-    `obj`'s axes, then in the world's), the whole mesh framed, then a tall mesh's head."""
+    the object's axes, then in the world's), the whole mesh framed, then a tall mesh's head."""
     if camera is not None:
         yield camera_view(camera, SEARCH_RES)
         return
@@ -266,7 +272,7 @@ def find_front(obj, surface: Surface, bvh, camera=None) -> tuple[View, object, n
     points = surface.points
     reach = float(np.linalg.norm(np.ptp(points, axis=0))) or 1.0
     with front_scene(obj) as (scene, camera_object, key):
-        for view in search_views(surface, obj, camera):
+        for view in search_views(surface, camera):
             far = view.distance + 2 * reach + float(np.linalg.norm(view.origin - points.mean(axis=0)))
             face = read_face(render_view(scene, camera_object, key, view, view.distance * 0.01, far))
             if face is None or not FRONTAL[0] <= frontal(face.landmarks) <= FRONTAL[1]:
@@ -298,11 +304,6 @@ def seen(view: View, points: np.ndarray, bvh) -> np.ndarray:
         hit = bvh.ray_cast(view.origin.tolist(), (offset / distance).tolist(), distance + tolerance)
         shown[i] = hit[0] is None or hit[3] >= distance - tolerance
     return shown
-
-
-def face_layers():
-    """The declared products whose regions are face regions (FaceRegion): the makeup layers."""
-    return [product for product in PRODUCTS.values() if product.face_regions]
 
 
 def region_values(landmarks: np.ndarray, pixels: np.ndarray, shown: np.ndarray, product) -> dict[str, np.ndarray]:
@@ -364,14 +365,14 @@ def find_face(obj: bpy.types.Object, camera: bpy.types.Object | None = None,
     name -> a vertex group that says where that region is, used for its weight; None: the groups named as a region,
     any case, such as "Lips"). Nothing is changed on a VtoError."""
     checked_mesh(obj)
-    products = face_layers()
+    products = layer_products()
     names = {region.name for product in products for region in product.face_regions}
     if groups is None:
         groups = {group.name.lower(): group.name for group in obj.vertex_groups if group.name.lower() in names}
-    for name in groups or {}:
+    for name in groups:
         if name not in names:
             raise VtoError(f"no face region '{name}'; choose from {either(sorted(names))}")
-    given = {name: group_weights(obj, group) for name, group in (groups or {}).items()}
+    given = {name: group_weights(obj, group) for name, group in groups.items()}
     surface = surface_of(obj)
     bvh = surface.bvh()
     view, face, image = find_front(obj, surface, bvh, camera)
@@ -446,11 +447,11 @@ def place_camera(scene: bpy.types.Scene, obj: bpy.types.Object, view: View) -> b
     return camera
 
 
-def drawn_landmarks(found: FaceOnMesh, products) -> np.ndarray:
-    """The front render with the landmarks drawn (each product's regions' in its viewport colour, the rest white):
-    (H, W, 3) display sRGB."""
+def drawn_landmarks(found: FaceOnMesh) -> np.ndarray:
+    """The front render with the landmarks drawn (each makeup layer's regions' in its viewport colour, the rest
+    white): (H, W, 3) display sRGB."""
     image = found.front.copy()
-    tints = {i: tint for product, tint in zip(products, REGION_COLOURS * 4)
+    tints = {i: tint for product, tint in zip(layer_products(), REGION_COLOURS * 4)
              for region in product.face_regions for loop in region.loops for i in loop}
     height, width = image.shape[:2]
     for i, (x, y) in enumerate(np.round(found.landmarks - 0.5).astype(int)):
@@ -462,9 +463,7 @@ def attributes_seen(obj: bpy.types.Object, view: View, names: tuple[str, ...]) -
     """Up to three of `obj`'s float attributes as `view` sees them on its surface (scene_attributes):
     (res, res, len(names)) linear, 0 off the mesh. What the regions found look like from a camera."""
     with front_scene(obj) as (scene, camera, _):
-        camera.matrix_world = view.matrix()
-        camera.data.lens = view.focal * camera.data.sensor_width
-        camera.data.clip_start, camera.data.clip_end = view.distance * 0.01, view.distance * 100
+        aim(camera, view, view.distance * 0.01, view.distance * 100)
         return scene_attributes(scene, names, view.res)
 
 

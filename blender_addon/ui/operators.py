@@ -466,7 +466,7 @@ class VTO_OT_find_face(bpy.types.Operator):
         return context.scene is not None
 
     def execute(self, context):
-        from ..matching.face_on_mesh import drawn_landmarks, face_layers, find_face, place_camera
+        from ..matching.face_on_mesh import drawn_landmarks, find_face, place_camera
 
         camera = context.scene.camera if self.use_scene_camera else None
         try:
@@ -477,7 +477,7 @@ class VTO_OT_find_face(bpy.types.Operator):
             self.report({"ERROR"}, failure_line(exc))
             return {"CANCELLED"}
         place_camera(context.scene, context.object, found.view)
-        preview.show_found_face(context.object.name, drawn_landmarks(found, face_layers()))
+        preview.show_found_face(context.object.name, drawn_landmarks(found))
         for area in (a for a in getattr(context.screen, "areas", ()) if a.type == "VIEW_3D"):
             shading = area.spaces.active.shading  # the regions found, in the viewport's solid shading
             if shading.type == "SOLID":

@@ -12,8 +12,7 @@ import bpy
 from vto_core.products import Product, get_spec
 
 from ..matching import apply
-from ..matching.face_on_mesh import face_layers
-from ..renderers.makeup_layer import layers
+from ..renderers.makeup_layer import layer_products, layers
 from . import preview, thumbnail, warmup
 from .operators import (VTO_OT_add_hair_compositor, VTO_OT_find_face, VTO_OT_match_from_photo, VTO_OT_preview_on_photo,
                         add_material_buttons, layer_buttons, layer_choice)
@@ -268,7 +267,7 @@ class VTO_PT_character(bpy.types.Panel):
     def draw(self, context):
         obj = context.object
         self.layout.operator(VTO_OT_find_face.bl_idname, icon="USER")
-        found = [product.face_region for product in face_layers()
+        found = [product.face_region for product in layer_products()
                  if product.face_region.attribute in obj.data.attributes]
         self.layout.label(text=f"Found: {', '.join(region.name for region in found)}" if found
                           else "No face regions on this mesh yet", icon="CHECKMARK" if found else "INFO")
